@@ -1,0 +1,46 @@
+// A clip: a skeleton, a fixed frame rate, and per frame the local rotation of every joint plus
+// the local translation of the joints whose position is animated (the root, and any BVH joint
+// with position channels). A frame's local rotation replaces the joint's rest rotation; joints
+// without animated translation keep their rest offset.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <span>
+#include <vector>
+
+#include "skeleton/fk.h"
+#include "skeleton/skeleton.h"
+
+namespace odyssey {
+
+struct Clip {
+  Skeleton skeleton;
+  double fps = 30.0;
+  // rotations[frame * joint_count + joint]
+  std::vector<Eigen::Quaterniond> rotations;
+  // Joints whose local translation is animated, and their translations[frame * size + k].
+  std::vector<int> translated_joints;
+  std::vector<Eigen::Vector3d> translations;
+
+  int joint_count() const { return skeleton.joint_count(); }
+  int frame_count() const;
+  double duration() const { return frame_count() > 0 ? (frame_count() - 1) / fps : 0.0; }
+  const Eigen::Quaterniond& rotation(int frame, int joint) const { return rotations[std::size_t(frame) * joint_count() + joint]; }
+
+  // Throws std::invalid_argument on inconsistent sizes, a non-positive frame rate, or a
+  // non-finite value (naming the first bad frame and joint).
+  void validate() const;
+
+  // Local transforms of one frame (rest offsets where not animated).
+  void local_pose(int frame, std::span<RigidTransform<double>> local) const;
+  // World transforms of one frame.
+  void world_pose(int frame, std::span<RigidTransform<double>> world) const;
+
+  // The clip sampled at `target_fps` over the same duration: frame k sits at time k / target_fps;
+  // rotations are slerped (short way) and translations interpolated linearly between the two
+  // neighbouring source frames. The last frame is the last time <= the source duration.
+  Clip resampled(double target_fps) const;
+};
+
+}  // namespace odyssey
