@@ -1,0 +1,75 @@
+// odyssey pose: evaluate a body model over a motion, or a BVH skeleton over its own motion, and
+// write per-frame joints (and vertices) to an npz. Frames are evaluated and written in chunks,
+// so memory stays flat however long the sequence is.
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cli/args.h"
+#include "cli/commands.h"
+#include "cli/motion_file.h"
+#include "mocap_io/amass.h"
+#include "mocap_io/body_model_file.h"
+#include "mocap_io/bvh.h"
+#include "mocap_io/input_error.h"
+#include "mocap_io/pose_export.h"
+#include "skeleton/pose_layout.h"
+
+namespace odyssey::cli {
+
+int run_pose(const std::vector<std::string>& arguments) {
+  Args args("pose",
+            "Evaluate a body model on an AMASS-style sequence and write per-frame `joints` [T,J,3] and\n"
+            "`vertices` [T,V,3] (float32, metres, the sequence's Z-up world), plus `faces`, `fps`,\n"
+            "`joint_names` and `parents`. Given a BVH as --motion (no model needed) it writes the\n"
+            "per-frame world `joints` [T,J,3] in metres, Z up, with `joint_names`, `parents` and `fps`.");
+  args.option("model", "FILE", "SMPL-X / SMPL-H / SMPL body model npz (smplx package layout)")
+      .option("motion", "FILE", "AMASS-style npz sequence or BVH file")
+      .option("out", "FILE", "output npz")
+      .option("fps", "FPS", "resample the motion to this frame rate (default: keep the motion's own)")
+      .flag("no-hands", "finger joints keep their rest rotation (hand poses ignored)")
+      .flag("no-face", "jaw and eyes keep their rest rotation, expression ignored")
+      .flag("no-correctives", "skip the pose-corrective blend shapes")
+      .flag("joints-only", "write joints only, skip the mesh");
+  add_bvh_units_option(args);
+  if (!args.parse(arguments)) return 0;
+
+  const std::string motion_path = args.get("motion");
+  const std::string out_path = args.get("out");
+  std::optional<double> fps;
+  if (args.has("fps")) {
+    fps = args.get_double("fps");
+    if (!(*fps > 0)) throw UsageError("--fps must be positive");
+  }
+
+  if (detect_motion_file(motion_path) == MotionFileKind::Bvh) {
+    Clip clip = io::load_bvh(motion_path, io::BvhOptions{bvh_metres_per_unit(args)});
+    if (fps) clip = clip.resampled(*fps);
+    io::export_clip_joints(clip, out_path);
+    std::printf("wrote %s: %d frames at %.6g fps, %d joints\n", out_path.c_str(), clip.frame_count(), clip.fps,
+                clip.joint_count());
+    return 0;
+  }
+
+  const std::string model_path = args.get("model");
+  const BodyModel model = io::load_body_model(model_path);
+  BodySequence sequence = io::load_amass_file(motion_path).sequence;
+  if (sequence.frame_count() < 1) throw io::InputError(motion_path, "the sequence has no frames");
+  if (fps) sequence = sequence.resampled(*fps);
+  sequence = sequence_for_model(sequence, model.kind);
+
+  BodyModelOptions options;
+  options.hands = !args.get_flag("no-hands");
+  options.face = !args.get_flag("no-face");
+  options.pose_correctives = !args.get_flag("no-correctives");
+  const bool joints_only = args.get_flag("joints-only");
+  io::export_body_poses(model, sequence, options, joints_only, out_path);
+  std::printf("wrote %s: %d frames at %.6g fps, %d joints", out_path.c_str(), sequence.frame_count(), sequence.fps,
+              model.joint_count());
+  if (!joints_only) std::printf(", %d vertices", model.vertex_count());
+  std::printf("\n");
+  return 0;
+}
+
+}  // namespace odyssey::cli

@@ -1,0 +1,16 @@
+// The odyssey subcommands. Each takes the arguments after its name and returns the exit code;
+// errors are thrown (InputError for bad files, UsageError for bad command lines) and reported
+// by main in one line.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace odyssey::cli {
+
+int run_inspect(const std::vector<std::string>& arguments);
+int run_pose(const std::vector<std::string>& arguments);
+int run_make_body(const std::vector<std::string>& arguments);
+int run_demo(const std::vector<std::string>& arguments);
+
+}  // namespace odyssey::cli

@@ -1,0 +1,23 @@
+// Per-frame pose streams as npz, written in chunks of frames so memory does not grow with the
+// sequence: a body model evaluated over a sequence (joints and vertices), or a clip's world
+// joint positions. Written through NpzWriter, so a failure leaves no file at `out_path`.
+#pragma once
+
+#include <string>
+
+#include "skeleton/body_model.h"
+#include "skeleton/body_sequence.h"
+#include "skeleton/clip.h"
+
+namespace odyssey::io {
+
+// Keys: joints [T,J,3] float32, vertices [T,V,3] float32 (unless joints_only), faces [F,3]
+// uint32, fps (0-d float64), joint_names [J] (unicode), parents [J] int32. Positions are in the
+// sequence's world (Z up for AMASS). The sequence must already be in the model's pose layout.
+void export_body_poses(const BodyModel& model, const BodySequence& sequence, const BodyModelOptions& options,
+                       bool joints_only, const std::string& out_path);
+
+// Keys: joints [T,J,3] float32 world positions, joint_names, parents, fps.
+void export_clip_joints(const Clip& clip, const std::string& out_path);
+
+}  // namespace odyssey::io
