@@ -78,11 +78,26 @@ struct BodyModelOptions {
 };
 
 // Evaluates a body model for one shape over many frames. Construction and set_shape() do the
-// per-sequence work (shaped template, rest joints); evaluate() is the per-frame hot path and
-// does not allocate. One evaluator per thread; the model is shared read-only.
+// per-sequence work (shaped template, rest joints, skinning weights regrouped for the LBS loop);
+// evaluate() is the per-frame hot path and does not allocate. One evaluator per thread; the
+// model is shared read-only and must outlive the evaluator.
+//
+// Precision: everything is double except the pose-corrective product, which multiplies the
+// float32 posedirs by float32 pose features (accumulated in float32). Corrective offsets are
+// centimetres, so float32 rounding stays near 1e-9 m; the result matches a float64 evaluation
+// of the float32 model values to about 1e-8 m.
 class BodyModelEvaluator {
  public:
+  // Validates the model (std::invalid_argument) and sets the shape to the mean (all betas 0).
   BodyModelEvaluator(const BodyModel& model, BodyModelOptions options = {});
+  ~BodyModelEvaluator();
+  BodyModelEvaluator(BodyModelEvaluator&&) noexcept;
+  BodyModelEvaluator(const BodyModelEvaluator&) = delete;
+  BodyModelEvaluator& operator=(const BodyModelEvaluator&) = delete;
+  BodyModelEvaluator& operator=(BodyModelEvaluator&&) = delete;
+
+  const BodyModel& model() const { return model_; }
+  const BodyModelOptions& options() const { return options_; }
 
   // betas: up to shape_count values (missing ones are 0); expression likewise (ignored with
   // options.face false or for models without expression directions).
@@ -98,18 +113,34 @@ class BodyModelEvaluator {
   void evaluate(std::span<const double> full_pose, const Eigen::Vector3d& translation, std::span<double> joints_out,
                 std::span<float> vertices_out);
 
-  // `frames` frames at once (poses frames x pose_size(), translations frames x 3): the pose
-  // correctives of the whole batch are one matrix product posedirs x features.
+  // `frames` frames at once (poses frames x pose_size(), translations frames x 3, joints_out
+  // frames x J x 3, vertices_out frames x V x 3 or empty): the pose correctives of the whole
+  // batch are one matrix product posedirs x features. Allocates only when a batch is longer
+  // than any before it (the buffers grow to fit) and inside Eigen's matrix product, which packs
+  // its operands into scratch blocks once per batch.
   void evaluate_batch(int frames, std::span<const double> full_poses, std::span<const double> translations,
                       std::span<double> joints_out, std::span<float> vertices_out);
 
  private:
   struct Workspace;
+  // Rotations, pose features, forward kinematics and skinning matrices of one frame; writes
+  // the joints and, when `features` is not null, the pose-corrective features.
+  void pose_frame(std::span<const double> full_pose, const Eigen::Vector3d& translation, std::span<double> joints_out,
+                  float* features, Eigen::Matrix4d* skinning);
+  // Blends the skinning matrices over every vertex; `offsets` (3V pose-corrective offsets) may
+  // be null.
+  template <class Scalar>
+  void skin(const Eigen::Matrix4d* skinning, const float* offsets, const Eigen::Vector3d& translation,
+            Scalar* vertices_out) const;
+  template <class Scalar>
+  void evaluate_one(std::span<const double> full_pose, const Eigen::Vector3d& translation, std::span<double> joints_out,
+                    std::span<Scalar> vertices_out);
+
   const BodyModel& model_;
   BodyModelOptions options_;
   RowMatrixXd v_shaped_;
   RowMatrixXd rest_joints_;
-  std::shared_ptr<Workspace> workspace_;
+  std::unique_ptr<Workspace> workspace_;
 };
 
 }  // namespace odyssey
