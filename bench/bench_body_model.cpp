@@ -11,7 +11,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <fstream>
 #include <random>
 #include <string>
@@ -26,15 +25,7 @@
 namespace odyssey {
 namespace {
 
-// The shared folder sits beside the checkout (as the tests' ODYSSEY_SHARED_DIR default does);
-// the environment variable ODYSSEY_SHARED_DIR overrides it.
-std::string fixture_dir() {
-  const char* shared = std::getenv("ODYSSEY_SHARED_DIR");
-  const std::filesystem::path root = shared != nullptr ? std::filesystem::path(shared)
-                                                       : std::filesystem::path(__FILE__).parent_path().parent_path().parent_path() / "shared";
-  return (root / "fixtures/smplx").string();
-}
-const std::string kFixtureDir = fixture_dir();
+const std::string kFixtureDir = ODYSSEY_SHARED_DIR "/fixtures/smplx";
 
 // The fixture with its sparse parts made dense, as in the released model:
 // - posedirs: normal values with the fixture's own RMS on every row (the fixture fills only
