@@ -41,6 +41,9 @@ struct Character {
   // Uniform scale accumulated on each joint in the file (glTF node scales, armature scale), which
   // the rigid skeleton has folded away; writers restore it for translation channels.
   std::vector<double> source_scale_of_joint;
+  // What the loader skipped, approximated or cannot animate (unsupported primitives, influences
+  // beyond four, morph targets, the file parser's own remarks), one line each.
+  std::vector<std::string> warnings;
 
   // Axis-aligned bounds of the skinned meshes at the rest pose (z is height), for scale and
   // floor placement; when there is no mesh, of the joints.
@@ -49,6 +52,8 @@ struct Character {
 
 // Skins one mesh at the given world joint transforms (one per skeleton joint). The plain
 // reference implementation: clear, double precision, no tricks; the fast engine is in skinning/.
+// Throws std::invalid_argument when the mesh's arrays disagree in length, or a skin joint or an
+// influence slot points outside joint_world or skin_joints.
 std::vector<Eigen::Vector3d> skin_mesh_reference(const CharacterMesh& mesh,
                                                  const std::vector<RigidTransform<double>>& joint_world);
 

@@ -47,4 +47,17 @@ std::vector<double> convert_pose(BodyModelKind from, std::span<const double> pos
   return result;
 }
 
+BodySequence sequence_for_model(const BodySequence& sequence, BodyModelKind to) {
+  if (sequence.kind == to) return sequence;
+  BodySequence result = sequence;
+  result.kind = to;
+  result.poses.setZero(sequence.frame_count(), 3 * body_model_joint_count(to));
+  for (int frame = 0; frame < sequence.frame_count(); ++frame) {
+    const auto row = sequence.poses.row(frame);
+    const std::vector<double> pose = convert_pose(sequence.kind, std::span<const double>(row.data(), row.size()), to);
+    result.poses.row(frame) = Eigen::Map<const Eigen::RowVectorXd>(pose.data(), pose.size());
+  }
+  return result;
+}
+
 }  // namespace odyssey

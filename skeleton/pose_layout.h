@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "skeleton/body_model.h"
+#include "skeleton/body_sequence.h"
 
 namespace odyssey {
 
@@ -16,5 +17,8 @@ std::vector<int> pose_joint_map(BodyModelKind from, BodyModelKind to);
 
 // `pose` has 3 * joint_count(from) numbers; the result 3 * joint_count(to).
 std::vector<double> convert_pose(BodyModelKind from, std::span<const double> pose, BodyModelKind to);
+
+// The sequence with every frame's pose moved to the `to` layout (a copy when the kinds agree).
+BodySequence sequence_for_model(const BodySequence& sequence, BodyModelKind to);
 
 }  // namespace odyssey

@@ -1,0 +1,85 @@
+// glTF 2.0 characters (.gltf with external or embedded buffers, and .glb), read with tinygltf into
+// a Character in the toolkit's world: Z up, rigid joints, glTF's skinning kept per mesh.
+//
+// Which nodes become joints. The skeleton is every joint of every skin in the file, every node of
+// the displayed scene (the file's `scene`, else scene 0, else every root node) that carries a
+// mesh without a skin (a mesh attached rigidly to that node), and every node on the way from a
+// root of the node hierarchy down to those: intermediate nodes that are not skin joints become
+// joints too, so forward kinematics reproduces the file's transforms exactly. At the top of each
+// tree, a chain of nodes that are neither skin joints nor rigid mesh nodes and have one child in
+// the skeleton (RobotExpressive's RootNode and 100-scaled RobotArmature, a Z_UP conversion node,
+// an empty "Armature") gives no joints: its transforms are folded into the root joint's rest
+// transform. Skinned mesh nodes are not joints either, as glTF ignores their transform. Joints
+// keep the parent-first order of a depth-first walk of the node hierarchy; a node without a name
+// is named "joint_<node index>", and a name already taken gets "_node<node index>" appended (skin
+// joints claim names first, so the rig's bones keep the names bone maps look for).
+//
+// Transforms. A node's local matrix L is its `matrix`, or T R S from translation, rotation
+// (normalised) and scale; its world matrix is G(n) = G(parent) L(n) from the hierarchy's roots.
+// The rigid skeleton keeps the rotation and position of each G and moves the scale into the
+// meshes. Write G(n) = [A | t] with A = U Sigma V^T (SVD), and its closest rotation R = U V^T
+// (U diag(1, 1, -1) V^T when det A < 0). With C = y_up_to_z_up(), the joint's world transform is
+//   W(n) = C [R | t]                      (the root's rest transform; a joint's rest local
+//                                           transform is W(parent)^-1 W(n), so the rest offset
+//                                           is R_parent^T (t - t_parent), scale included)
+// and its source scale s(n) = cbrt(|det A|). Where the file's scales are uniform, A = s R exactly.
+//
+// Skinning. glTF skins a vertex v of a skinned mesh with
+//   v_gltf = sum_k w_k G(joint_k) IBM_k v           (the mesh node's own transform is ignored)
+// and the toolkit (character.h) with v_world = sum_k w_k W(joint_k) inverse_bind_k v. Requiring
+// v_world = C v_gltf slot by slot gives
+//   inverse_bind_k = W^-1 C G IBM_k = [R | t]^-1 G IBM_k = [R^T A | R^T (t_G - t)] IBM_k
+//                  = diag(s, s, s, 1) IBM_k        when A = s R (uniform scale),
+// since W^-1 C = [R | t]^-1 C^-1 C. The loader stores the exact product, so the rest pose is
+// reproduced to double rounding even where the file's scales are slightly uneven. A rigid mesh
+// on node n is a skin of the one joint n with weight 1 and inverse_bind = [R | t]^-1 G(n), which
+// is diag(s, s, s, 1) for uniform scale. Missing inverse bind matrices are the identity.
+//
+// Scale that the rigid skeleton cannot carry. When a joint is posed, its children move rigidly
+// with it; that matches glTF only when the joint's world linear part A is a rotation times one
+// scale. So a node that has joints below it must have singular values of A within a ratio of
+// 1 + 1e-3 of each other (exporters leave float noise of about 1e-5, a real stretch is far
+// larger), a positive determinant (no mirroring) and no zero scale; otherwise the file is
+// rejected. Leaf joints and rigid mesh nodes may carry any scale (uneven, mirrored, zero): it
+// lives only in their inverse binds, which reproduce the rest pose exactly and, for a TRS node
+// whose parent scales uniformly, its rotations too (G' = W' diag(s_parent S) with S its scale).
+//
+// Meshes. Every TRIANGLES primitive (indexed or not) of every mesh node of the scene becomes one
+// CharacterMesh, in node index order and then primitive order, named after the mesh (else the
+// node, else "mesh_<index>"), with "#<primitive>" appended when the mesh has several. Other
+// primitive modes and primitives without POSITION are skipped with a warning. Positions may be
+// float or, as KHR_mesh_quantization allows, integers (normalised or not). Morph targets are
+// not animated: their POSITION displacements are baked in at the node's (else the mesh's) default
+// weights, so the rest shape is the file's, and a warning says so.
+// Vertex indices are unsigned byte, short or int. Influences come from every JOINTS_n / WEIGHTS_n
+// pair: JOINTS as unsigned byte or short (indices, like vertex indices, must not be normalised),
+// WEIGHTS as float or unsigned byte or short (normalised or not: a constant factor cancels in
+// the renormalisation that follows). The four largest weights of a vertex are kept and
+// divided by their sum, so each row sums to 1 within float rounding; a warning counts the
+// vertices that lost a non-zero weight. A vertex whose weights are all zero would collapse to
+// the origin in glTF; it follows its first listed joint (JOINTS_0.x) with weight 1 instead, and a
+// warning counts such vertices.
+//
+// Untrusted input. The GLB container is checked before tinygltf sees it; then every index
+// (scene, node, child, mesh, skin, joint, accessor, buffer view, buffer), every component type,
+// element type, count, stride and byte range, every sparse substitution and every number
+// (finite, weights not negative, joint slots inside the skin, vertex indices inside the mesh) is
+// checked, and a problem throws InputError(path, problem). A node with two parents or a cycle in
+// the node hierarchy is an error. An accessor without a buffer view reads as zeros (then its
+// sparse values, if any); such an accessor may declare at most 2^26 elements, so a few bytes of
+// JSON cannot make the loader allocate gigabytes. Files that require Draco or meshopt geometry
+// compression are rejected. tinygltf's warnings (for example an external texture that is missing)
+// go into Character::warnings; images are never decoded.
+#pragma once
+
+#include <string>
+
+#include "skeleton/character.h"
+
+namespace odyssey::io {
+
+// Loads a .gltf or .glb (told apart by the GLB magic bytes, not by the extension). Character.name
+// is the file's stem. Throws InputError naming the file for anything it cannot read exactly.
+Character load_character(const std::string& path);
+
+}  // namespace odyssey::io
