@@ -11,3 +11,8 @@ as_root=()
 [ "$(id -u)" -eq 0 ] || as_root=(sudo)
 "${as_root[@]}" apt-get update -qq
 DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y -qq --no-install-recommends "${packages[@]}" >/dev/null
+# The Khronos glTF validator checks every GLB the tests write. Node and npm come with the
+# machine image; without them the validator tests skip and say so.
+if command -v npm >/dev/null 2>&1; then
+  npm install --silent --prefix "$(dirname "$0")/../tools/gltf-validator" --package-lock=false >/dev/null
+fi
