@@ -1,0 +1,428 @@
+#include "mocap_io/bvh.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <string_view>
+#include <unordered_set>
+#include <vector>
+
+#include "mocap_io/input_error.h"
+#include "skeleton/rotation.h"
+
+namespace odyssey::io {
+namespace {
+
+std::string read_whole_file(const std::string& path) {
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (!file) throw InputError(path, std::string("cannot open: ") + std::strerror(errno));
+  std::string text;
+  char buffer[1 << 16];
+  std::size_t got = 0;
+  while ((got = std::fread(buffer, 1, sizeof buffer, file)) > 0) text.append(buffer, got);
+  const int error = std::ferror(file) ? errno : 0;
+  std::fclose(file);
+  if (error != 0) throw InputError(path, std::string("cannot read: ") + std::strerror(error));
+  return text;
+}
+
+bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f'; }
+bool is_line_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+// A token as it may appear in a one-line message: at most 32 characters, non-printable bytes
+// shown as '?', so a binary file cannot garble the report.
+std::string quoted(std::string_view token) {
+  std::string out = "'";
+  for (std::size_t i = 0; i < token.size() && i < 32; ++i) {
+    const unsigned char c = static_cast<unsigned char>(token[i]);
+    out += (c >= 0x20 && c < 0x7f) ? char(c) : '?';
+  }
+  if (token.size() > 32) out += "...";
+  return out + "'";
+}
+
+// What was found where something else was expected: the quoted token, or the end of the file.
+std::string found(std::string_view token) { return token.empty() ? std::string("the end of the file") : quoted(token); }
+
+struct Channel {
+  bool rotation = false;
+  int axis = 0;  // 0, 1, 2 for X, Y, Z of the BVH (Y-up) joint frame
+};
+
+// "Xposition" .. "Zrotation", case-insensitively.
+bool parse_channel(std::string_view token, Channel& channel) {
+  if (token.size() != 9) return false;
+  const char axis = char(token[0] | 0x20);
+  if (axis < 'x' || axis > 'z') return false;
+  std::string rest(token.substr(1));
+  for (char& c : rest) c = char(c | 0x20);
+  if (rest != "position" && rest != "rotation") return false;
+  channel = {rest == "rotation", axis - 'x'};
+  return true;
+}
+
+struct Joint {
+  std::string name;
+  int parent = -1;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // BVH units, Y-up parent frame
+  int first_channel = 0;                             // index of its first number on a frame line
+  std::vector<Channel> channels;
+  bool translated = false;  // has at least one position channel
+};
+
+class BvhParser {
+ public:
+  BvhParser(const std::string& path, std::string_view text) : path_(path), text_(text) {
+    // A UTF-8 byte order mark is not part of the first keyword.
+    if (text_.substr(0, 3) == "\xEF\xBB\xBF") position_ = 3;
+  }
+
+  Clip parse(double metres_per_unit) {
+    parse_hierarchy();
+    const auto [frame_count, frame_time, frame_time_token] = parse_motion_header();
+    Clip clip = make_clip(metres_per_unit, frame_rate(frame_time, frame_time_token));
+    parse_frames(frame_count, metres_per_unit, clip);
+    try {
+      clip.validate();
+    } catch (const std::invalid_argument& error) {
+      throw InputError(path_, error.what());
+    }
+    return clip;
+  }
+
+ private:
+  [[noreturn]] void fail(int line, const std::string& problem) const {
+    throw InputError(path_, "line " + std::to_string(line) + ": " + problem);
+  }
+
+  // The next whitespace-separated token (empty at the end of the text); token_line_ is its line.
+  std::string_view next_token() {
+    while (position_ < text_.size() && is_space(text_[position_])) {
+      if (text_[position_] == '\n') ++line_;
+      ++position_;
+    }
+    token_line_ = line_;
+    const std::size_t start = position_;
+    while (position_ < text_.size() && !is_space(text_[position_])) ++position_;
+    return text_.substr(start, position_ - start);
+  }
+
+  // The token as a finite number; anything else fails with a one-line reason. A leading '+' is allowed
+  // (from_chars alone rejects it); ".0083333" style values without a leading zero parse as is.
+  double to_number(std::string_view token, int line) const {
+    std::string_view digits = token;
+    if (digits.size() > 1 && digits[0] == '+' && digits[1] != '-') digits.remove_prefix(1);
+    double value = 0;
+    const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
+    if (error == std::errc::result_out_of_range) fail(line, "number " + quoted(token) + " is out of range");
+    if (error != std::errc() || end != digits.data() + digits.size()) fail(line, quoted(token) + " is not a number");
+    if (!std::isfinite(value)) fail(line, "value " + quoted(token) + " is not finite");
+    return value;
+  }
+
+  double next_number(const char* what) {
+    const std::string_view token = next_token();
+    if (token.empty()) fail(token_line_, std::string("file ends where ") + what + " should be");
+    return to_number(token, token_line_);
+  }
+
+  std::string describe_block(int joint) const {
+    return joint < 0 ? std::string("End Site") : "joint " + quoted(joints_[joint].name);
+  }
+
+  // Opens a ROOT or JOINT block: name, '{'. Blocks are tracked on an explicit stack rather than
+  // by recursion, so nesting depth is bounded by memory, not by the call stack.
+  void open_joint(int parent, const char* keyword) {
+    const std::string_view name = next_token();
+    if (name.empty()) fail(token_line_, std::string("file ends after ") + keyword);
+    if (name == "{" || name == "}") fail(token_line_, std::string(keyword) + " has no name");
+    const int name_line = token_line_;
+    if (!names_.insert(std::string(name)).second) fail(name_line, "joint name " + quoted(name) + " is used twice");
+    const std::string_view brace = next_token();
+    if (brace != "{")
+      fail(token_line_, "expected '{' after " + std::string(keyword) + " " + quoted(name) + ", found " + found(brace));
+    joints_.push_back({std::string(name), parent, Eigen::Vector3d::Zero(), 0, {}, false});
+    open_.push_back({static_cast<int>(joints_.size()) - 1, false, false});
+  }
+
+  void parse_hierarchy() {
+    const std::string_view first = next_token();
+    if (first != "HIERARCHY")
+      fail(token_line_, "expected HIERARCHY, found " + (first.empty() ? "an empty file" : quoted(first)));
+    for (;;) {
+      const std::string_view token = next_token();
+      if (token.empty()) {
+        if (open_.empty()) fail(token_line_, "file ends before MOTION");
+        fail(token_line_, "file ends inside " + describe_block(open_.back().joint) + " (missing '}')");
+      }
+      if (open_.empty()) {
+        if (token == "ROOT") {
+          open_joint(-1, "ROOT");
+        } else if (token == "MOTION") {
+          if (joints_.empty()) fail(token_line_, "MOTION before any ROOT");
+          return;
+        } else if (token == "}") {
+          fail(token_line_, "'}' closes no joint");
+        } else {
+          fail(token_line_, "expected ROOT or MOTION, found " + found(token));
+        }
+        continue;
+      }
+      Block& block = open_.back();
+      const bool end_site = block.joint < 0;
+      if (token == "OFFSET") {
+        if (block.has_offset) fail(token_line_, describe_block(block.joint) + " has a second OFFSET");
+        block.has_offset = true;
+        Eigen::Vector3d offset;
+        for (int axis = 0; axis < 3; ++axis) offset[axis] = next_number("an OFFSET value");
+        if (!end_site) joints_[block.joint].offset = offset;
+      } else if (token == "CHANNELS" && !end_site) {
+        if (block.has_channels) fail(token_line_, describe_block(block.joint) + " has a second CHANNELS line");
+        block.has_channels = true;
+        parse_channels(joints_[block.joint]);
+      } else if (token == "JOINT" && !end_site) {
+        open_joint(block.joint, "JOINT");
+      } else if (token == "End" && !end_site) {
+        const std::string_view site = next_token();
+        if (site != "Site") fail(token_line_, "expected 'Site' after 'End', found " + found(site));
+        const std::string_view brace = next_token();
+        if (brace != "{") fail(token_line_, "expected '{' after End Site, found " + found(brace));
+        open_.push_back({-1, false, false});
+      } else if (token == "}") {
+        if (!block.has_offset) fail(token_line_, describe_block(block.joint) + " has no OFFSET");
+        open_.pop_back();
+      } else if (token == "ROOT" || token == "MOTION") {
+        fail(token_line_, quoted(token) + " inside " + describe_block(block.joint) + " (missing '}')");
+      } else {
+        fail(token_line_, "unexpected " + quoted(token) + " inside " + describe_block(block.joint));
+      }
+    }
+  }
+
+  void parse_channels(Joint& joint) {
+    const std::string_view count_token = next_token();
+    const int count_line = token_line_;
+    int count = -1;
+    const auto [end, error] = std::from_chars(count_token.data(), count_token.data() + count_token.size(), count);
+    // Six is the most a joint can have with every channel at most once.
+    if (error != std::errc() || end != count_token.data() + count_token.size() || count < 0 || count > 6) {
+      fail(count_line, "CHANNELS count " + found(count_token) + " is not a number from 0 to 6");
+    }
+    joint.first_channel = channel_count_;
+    for (int k = 0; k < count; ++k) {
+      const std::string_view name = next_token();
+      Channel channel;
+      if (name.empty()) fail(token_line_, "file ends inside the CHANNELS list of joint " + quoted(joint.name));
+      if (!parse_channel(name, channel)) {
+        fail(token_line_, "unknown channel " + quoted(name) + " in joint " + quoted(joint.name) +
+                              " (expected Xposition, Yposition, Zposition, Xrotation, Yrotation or Zrotation)");
+      }
+      for (const Channel& seen : joint.channels) {
+        if (seen.rotation == channel.rotation && seen.axis == channel.axis) {
+          fail(token_line_, "channel " + quoted(name) + " appears twice in joint " + quoted(joint.name));
+        }
+      }
+      joint.channels.push_back(channel);
+      joint.translated = joint.translated || !channel.rotation;
+    }
+    channel_count_ += count;
+  }
+
+  struct MotionHeader {
+    int frame_count;
+    double frame_time;
+    std::string_view frame_time_token;
+  };
+
+  MotionHeader parse_motion_header() {
+    if (channel_count_ == 0) fail(token_line_, "the hierarchy declares no channels, so there is no motion to read");
+    const std::string_view frames_label = next_token();
+    if (frames_label != "Frames:") fail(token_line_, "expected 'Frames:', found " + found(frames_label));
+    const std::string_view frames_token = next_token();
+    long long frames = -1;
+    const auto [end, error] = std::from_chars(frames_token.data(), frames_token.data() + frames_token.size(), frames);
+    if (error != std::errc() || end != frames_token.data() + frames_token.size() || frames < 1 ||
+        frames > std::numeric_limits<int>::max()) {
+      fail(token_line_, "frame count " + found(frames_token) + " is not a positive integer");
+    }
+    const std::string_view frame_label = next_token();
+    const std::string_view time_label = next_token();
+    if (frame_label != "Frame" || time_label != "Time:") {
+      fail(token_line_, "expected 'Frame Time:', found " +
+                            (frame_label.empty() ? found(frame_label)
+                                                 : quoted(std::string(frame_label) + " " + std::string(time_label))));
+    }
+    const std::string_view time_token = next_token();
+    if (time_token.empty()) fail(token_line_, "file ends where the frame time should be");
+    const double frame_time = to_number(time_token, token_line_);
+    if (!(frame_time > 0)) fail(token_line_, "frame time " + quoted(time_token) + " is not positive");
+    return {static_cast<int>(frames), frame_time, time_token};
+  }
+
+  // See the header: the unique integer rate n with |1/n - t| <= h, h = half a unit of the last
+  // written digit of t; 1/t when no integer or several integers fit. The integers that fit are
+  // those in [1/(t + h), 1/(t - h)].
+  double frame_rate(double frame_time, std::string_view written) const {
+    int decimals = 0, exponent = 0;
+    const std::size_t point = written.find('.');
+    const std::size_t e = written.find_first_of("eE");
+    if (point != std::string_view::npos) decimals = static_cast<int>(std::min(e, written.size()) - point - 1);
+    if (e != std::string_view::npos) {
+      std::string_view exponent_text = written.substr(e + 1);
+      if (!exponent_text.empty() && exponent_text[0] == '+') exponent_text.remove_prefix(1);
+      std::from_chars(exponent_text.data(), exponent_text.data() + exponent_text.size(), exponent);
+    }
+    const double half_unit = 0.5 * std::pow(10.0, exponent - decimals);
+    if (frame_time > half_unit) {
+      const double lowest = std::ceil(1 / (frame_time + half_unit));
+      const double highest = std::floor(1 / (frame_time - half_unit));
+      if (lowest == highest) return lowest;
+    }
+    const double fps = 1 / frame_time;
+    if (!std::isfinite(fps)) fail(token_line_, "frame time " + quoted(written) + " gives no finite frame rate");
+    return fps;
+  }
+
+  Clip make_clip(double metres_per_unit, double fps) const {
+    const Eigen::Matrix3d c = y_up_to_z_up();
+    std::vector<std::string> names;
+    std::vector<int> parents;
+    std::vector<Eigen::Vector3d> offsets;
+    Clip clip;
+    for (std::size_t j = 0; j < joints_.size(); ++j) {
+      names.push_back(joints_[j].name);
+      parents.push_back(joints_[j].parent);
+      offsets.push_back(metres_per_unit * (c * joints_[j].offset));
+      if (joints_[j].translated) clip.translated_joints.push_back(static_cast<int>(j));
+    }
+    try {
+      clip.skeleton = Skeleton(std::move(names), std::move(parents), std::move(offsets));
+    } catch (const std::invalid_argument& error) {
+      throw InputError(path_, error.what());
+    }
+    clip.fps = fps;
+    return clip;
+  }
+
+  // One line of numbers a frame. Blank lines between frames are skipped; a frame line with fewer
+  // or more numbers than channels, fewer frame lines than declared, or anything after the last
+  // declared frame is an error.
+  void parse_frames(int frame_count, double metres_per_unit, Clip& clip) {
+    const std::size_t channels = static_cast<std::size_t>(channel_count_);
+    const std::size_t joints = joints_.size();
+    const char* p = text_.data() + position_;
+    const char* const end = text_.data() + text_.size();
+    int line = line_;
+
+    // The rest of the "Frame Time:" line must be empty.
+    while (p < end && is_line_space(*p)) ++p;
+    if (p < end && *p != '\n') {
+      const char* start = p;
+      while (p < end && !is_space(*p)) ++p;
+      fail(line, "unexpected " + quoted(std::string_view(start, p - start)) + " after the frame time");
+    }
+
+    // Every number takes at least two bytes (a digit and a separator), so a frame needs 2 *
+    // channels bytes: reserve no more frames than the rest of the file can hold.
+    const std::size_t backed_frames = static_cast<std::size_t>(end - p) / (2 * channels) + 1;
+    const std::size_t reserved = std::min<std::size_t>(frame_count, backed_frames);
+    clip.rotations.reserve(reserved * joints);
+    clip.translations.reserve(reserved * clip.translated_joints.size());
+
+    // A rotation of angle theta about BVH axis a is, conjugated by C, the rotation of theta about
+    // C a: q = (cos(theta/2), sin(theta/2) C a).
+    const Eigen::Matrix3d c = y_up_to_z_up();
+    const double half_radians_per_degree = std::numbers::pi / 360.0;
+    std::vector<double> values(channels);
+    int frame = 0;
+    while (frame < frame_count) {
+      if (p < end && *p == '\n') {
+        ++p;
+        ++line;
+      }
+      std::size_t count = 0;
+      for (;;) {
+        while (p < end && is_line_space(*p)) ++p;
+        if (p == end || *p == '\n') break;
+        const char* start = p;
+        while (p < end && !is_space(*p)) ++p;
+        const std::string_view token(start, p - start);
+        if (count == channels) {
+          fail(line, "frame " + std::to_string(frame) + " has more than " + std::to_string(channels) +
+                         " numbers (the hierarchy declares " + std::to_string(channels) + " channels)");
+        }
+        values[count++] = to_number(token, line);
+      }
+      if (count == 0) {
+        if (p == end) {
+          fail(line, "file ends after " + std::to_string(frame) + " of the " + std::to_string(frame_count) +
+                         " frames declared in 'Frames:'");
+        }
+        continue;  // a blank line
+      }
+      if (count < channels) {
+        fail(line, "frame " + std::to_string(frame) + " has " + std::to_string(count) + " numbers, expected " +
+                       std::to_string(channels) + " (one per channel)");
+      }
+      for (std::size_t j = 0; j < joints; ++j) {
+        const Joint& joint = joints_[j];
+        Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+        Eigen::Vector3d translation = joint.offset;
+        const double* joint_values = values.data() + joint.first_channel;
+        for (std::size_t k = 0; k < joint.channels.size(); ++k) {
+          const Channel& channel = joint.channels[k];
+          if (channel.rotation) {
+            const double half_angle = joint_values[k] * half_radians_per_degree;
+            const Eigen::Vector3d axis = std::sin(half_angle) * c.col(channel.axis);
+            rotation = rotation * Eigen::Quaterniond(std::cos(half_angle), axis.x(), axis.y(), axis.z());
+          } else {
+            translation[channel.axis] = joint_values[k];
+          }
+        }
+        clip.rotations.push_back(rotation);
+        if (joint.translated) clip.translations.push_back(metres_per_unit * (c * translation));
+      }
+      ++frame;
+    }
+    while (p < end && is_space(*p)) {
+      if (*p == '\n') ++line;
+      ++p;
+    }
+    if (p < end) fail(line, "more frame lines than the " + std::to_string(frame_count) + " declared in 'Frames:'");
+  }
+
+  struct Block {
+    int joint;  // index into joints_, or -1 for an End Site
+    bool has_offset;
+    bool has_channels;
+  };
+
+  const std::string& path_;
+  std::string_view text_;
+  std::size_t position_ = 0;
+  int line_ = 1;
+  int token_line_ = 1;
+  std::vector<Joint> joints_;
+  std::unordered_set<std::string> names_;
+  std::vector<Block> open_;
+  int channel_count_ = 0;
+};
+
+}  // namespace
+
+Clip load_bvh(const std::string& path, const BvhOptions& options) {
+  if (!(options.metres_per_unit > 0) || !std::isfinite(options.metres_per_unit)) {
+    throw std::invalid_argument("BVH metres_per_unit " + std::to_string(options.metres_per_unit) +
+                                " is not a positive finite number");
+  }
+  const std::string text = read_whole_file(path);
+  return BvhParser(path, text).parse(options.metres_per_unit);
+}
+
+}  // namespace odyssey::io
