@@ -155,7 +155,7 @@ TEST_F(CliTest, BadInputFailsWithOneLineAndNoOutputFile) {
   const Result missing = run("inspect " + scratch("missing.npz").string());
   EXPECT_EQ(missing.exit_code, 1);
   EXPECT_NE(missing.output.find("no such file"), std::string::npos) << missing.output;
-  for (const fs::path& entry : fs::directory_iterator(scratch(""))) {
+  for (const fs::directory_entry& entry : fs::directory_iterator(scratch(""))) {
     EXPECT_EQ(entry.path().string().find(".partial"), std::string::npos) << "partial file left: " << entry.path();
   }
 }
