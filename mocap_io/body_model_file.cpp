@@ -13,39 +13,6 @@
 namespace odyssey::io {
 namespace {
 
-// SMPL-X joint names in model order, identical to shared/assets/smplx_joints_55.tsv (the smplx
-// package's JOINT_NAMES[0:55]). Embedded so that loading a model needs no asset files.
-constexpr std::array<std::string_view, 55> kSmplxJointNames = {
-    "pelvis",         "left_hip",         "right_hip",     "spine1",        "left_knee",      "right_knee",
-    "spine2",         "left_ankle",       "right_ankle",   "spine3",        "left_foot",      "right_foot",
-    "neck",           "left_collar",      "right_collar",  "head",          "left_shoulder",  "right_shoulder",
-    "left_elbow",     "right_elbow",      "left_wrist",    "right_wrist",   "jaw",            "left_eye_smplhf",
-    "right_eye_smplhf", "left_index1",    "left_index2",   "left_index3",   "left_middle1",   "left_middle2",
-    "left_middle3",   "left_pinky1",      "left_pinky2",   "left_pinky3",   "left_ring1",     "left_ring2",
-    "left_ring3",     "left_thumb1",      "left_thumb2",   "left_thumb3",   "right_index1",   "right_index2",
-    "right_index3",   "right_middle1",    "right_middle2", "right_middle3", "right_pinky1",   "right_pinky2",
-    "right_pinky3",   "right_ring1",      "right_ring2",   "right_ring3",   "right_thumb1",   "right_thumb2",
-    "right_thumb3"};
-
-// SMPL-X is body 0-21, face 22-24, hands 25-54; SMPL-H drops the face joints; SMPL ends the
-// body with one joint per hand, named as in the smplx package.
-std::vector<std::string> joint_names(BodyModelKind kind) {
-  std::vector<std::string> names(kSmplxJointNames.begin(), kSmplxJointNames.begin() + BodyParts::kBodyJoints);
-  switch (kind) {
-    case BodyModelKind::SMPL:
-      names.emplace_back("left_hand");
-      names.emplace_back("right_hand");
-      break;
-    case BodyModelKind::SMPLH:
-      names.insert(names.end(), kSmplxJointNames.begin() + 25, kSmplxJointNames.end());
-      break;
-    case BodyModelKind::SMPLX:
-      names.insert(names.end(), kSmplxJointNames.begin() + BodyParts::kBodyJoints, kSmplxJointNames.end());
-      break;
-  }
-  return names;
-}
-
 std::string shape_text(const std::vector<std::size_t>& shape) {
   std::string out = "(";
   for (std::size_t i = 0; i < shape.size(); ++i) out += (i ? ", " : "") + std::to_string(shape[i]);
@@ -194,7 +161,7 @@ BodyModel load_body_model(const std::string& path) {
                    " joints, expected 24 (SMPL), 52 (SMPL-H) or 55 (SMPL-X)");
   }
   model.parents = parents_from_kintree(archive, archive.integers("kintree_table", kintree), joints);
-  model.joint_names = joint_names(model.kind);
+  model.joint_names = body_model_joint_names(model.kind);
 
   const NpyArray v_template = archive.load_any_shape("v_template");
   if (v_template.shape().size() != 2 || v_template.shape()[1] != 3 || v_template.shape()[0] == 0) {

@@ -10,6 +10,7 @@
 #include "skeleton/body_model.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -27,6 +28,51 @@ const char* body_model_kind_name(BodyModelKind kind) {
   }
   return "unknown";
 }
+
+namespace {
+
+// SMPL-X joint names in model order, identical to shared/assets/smplx_joints_55.tsv (the smplx
+// package's JOINT_NAMES[0:55]). Embedded so that nothing needs the asset file at run time.
+constexpr std::array<const char*, 55> kSmplxJointNames = {
+    "pelvis",         "left_hip",         "right_hip",     "spine1",        "left_knee",      "right_knee",
+    "spine2",         "left_ankle",       "right_ankle",   "spine3",        "left_foot",      "right_foot",
+    "neck",           "left_collar",      "right_collar",  "head",          "left_shoulder",  "right_shoulder",
+    "left_elbow",     "right_elbow",      "left_wrist",    "right_wrist",   "jaw",            "left_eye_smplhf",
+    "right_eye_smplhf", "left_index1",    "left_index2",   "left_index3",   "left_middle1",   "left_middle2",
+    "left_middle3",   "left_pinky1",      "left_pinky2",   "left_pinky3",   "left_ring1",     "left_ring2",
+    "left_ring3",     "left_thumb1",      "left_thumb2",   "left_thumb3",   "right_index1",   "right_index2",
+    "right_index3",   "right_middle1",    "right_middle2", "right_middle3", "right_pinky1",   "right_pinky2",
+    "right_pinky3",   "right_ring1",      "right_ring2",   "right_ring3",   "right_thumb1",   "right_thumb2",
+    "right_thumb3"};
+
+// The SMPL-X tree (parent of each joint; the root has -1).
+constexpr std::array<int, 55> kSmplxParents = {-1, 0,  0,  0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  9,
+                                               9,  12, 13, 14, 16, 17, 18, 19, 15, 15, 15, 20, 25, 26,
+                                               20, 28, 29, 20, 31, 32, 20, 34, 35, 20, 37, 38, 21, 40,
+                                               41, 21, 43, 44, 21, 46, 47, 21, 49, 50, 21, 52, 53};
+
+}  // namespace
+
+// SMPL-X is body 0-21, face 22-24, hands 25-54; SMPL-H drops the face joints; SMPL ends the
+// body with one joint per hand, named as in the smplx package.
+std::vector<std::string> body_model_joint_names(BodyModelKind kind) {
+  std::vector<std::string> names(kSmplxJointNames.begin(), kSmplxJointNames.begin() + BodyParts::kBodyJoints);
+  switch (kind) {
+    case BodyModelKind::SMPL:
+      names.emplace_back("left_hand");
+      names.emplace_back("right_hand");
+      break;
+    case BodyModelKind::SMPLH:
+      names.insert(names.end(), kSmplxJointNames.begin() + 25, kSmplxJointNames.end());
+      break;
+    case BodyModelKind::SMPLX:
+      names.insert(names.end(), kSmplxJointNames.begin() + BodyParts::kBodyJoints, kSmplxJointNames.end());
+      break;
+  }
+  return names;
+}
+
+std::vector<int> smplx_parents() { return {kSmplxParents.begin(), kSmplxParents.end()}; }
 
 int body_model_joint_count(BodyModelKind kind) {
   switch (kind) {

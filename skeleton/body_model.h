@@ -29,6 +29,12 @@ const char* body_model_kind_name(BodyModelKind kind);
 // Joint counts: SMPL 24, SMPL-H 52, SMPL-X 55. Pose vectors hold 3 axis-angle numbers a joint.
 int body_model_joint_count(BodyModelKind kind);
 
+// Joint names in model order, as the smplx package names them (SMPL-X: the table in
+// shared/assets/smplx_joints_55.tsv; SMPL-H drops jaw and eyes; SMPL ends in two hand joints).
+std::vector<std::string> body_model_joint_names(BodyModelKind kind);
+// The SMPL-X tree: the parent of each of the 55 joints, -1 for the pelvis.
+std::vector<int> smplx_parents();
+
 using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 using RowMatrixXi = Eigen::Matrix<int, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;

@@ -33,22 +33,9 @@ constexpr int kShapeCount = 300;
 constexpr int kExpressionCount = 100;
 constexpr int kMeaningfulShapes = 10;  // shape directions 0-9 have names; the rest are bulges
 
-// SMPL-X joints, as in shared/assets/smplx_joints_55.tsv and the smplx package.
-constexpr std::array<const char*, kJoints> kJointNames = {
-    "pelvis",         "left_hip",         "right_hip",     "spine1",        "left_knee",      "right_knee",
-    "spine2",         "left_ankle",       "right_ankle",   "spine3",        "left_foot",      "right_foot",
-    "neck",           "left_collar",      "right_collar",  "head",          "left_shoulder",  "right_shoulder",
-    "left_elbow",     "right_elbow",      "left_wrist",    "right_wrist",   "jaw",            "left_eye_smplhf",
-    "right_eye_smplhf", "left_index1",    "left_index2",   "left_index3",   "left_middle1",   "left_middle2",
-    "left_middle3",   "left_pinky1",      "left_pinky2",   "left_pinky3",   "left_ring1",     "left_ring2",
-    "left_ring3",     "left_thumb1",      "left_thumb2",   "left_thumb3",   "right_index1",   "right_index2",
-    "right_index3",   "right_middle1",    "right_middle2", "right_middle3", "right_pinky1",   "right_pinky2",
-    "right_pinky3",   "right_ring1",      "right_ring2",   "right_ring3",   "right_thumb1",   "right_thumb2",
-    "right_thumb3"};
-constexpr std::array<int, kJoints> kParents = {-1, 0,  0,  0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  9,
-                                               9,  12, 13, 14, 16, 17, 18, 19, 15, 15, 15, 20, 25, 26,
-                                               20, 28, 29, 20, 31, 32, 20, 34, 35, 20, 37, 38, 21, 40,
-                                               41, 21, 43, 44, 21, 46, 47, 21, 49, 50, 21, 52, 53};
+const std::vector<std::string> kJointNames = body_model_joint_names(BodyModelKind::SMPLX);
+const std::vector<int> kParents = smplx_parents();
+
 constexpr int kPelvis = 0, kSpine1 = 3, kSpine2 = 6, kSpine3 = 9, kNeck = 12, kHead = 15, kJaw = 22;
 
 // SMPL-X orders each hand's fingers index, middle, pinky, ring, thumb, three joints each.
@@ -1120,7 +1107,7 @@ SparseRows joint_regressor(const BodyMesh& body) {
       solved = points.size() >= 8 && max_entropy_weights(points, prior, body.joints[j], weights);
     }
     if (!solved)
-      throw std::logic_error("synthetic body: joint " + std::string(kJointNames[j]) + " is outside its vertices");
+      throw std::logic_error("synthetic body: joint " + kJointNames[j] + " is outside its vertices");
     for (std::size_t i = 0; i < ids.size(); ++i) entries.emplace_back(j, ids[i], weights[i]);
   }
   SparseRows regressor(kJoints, n);
@@ -1634,8 +1621,8 @@ SyntheticBody make_synthetic_body(unsigned seed, bool dense) {
   SyntheticBody out;
   BodyModel& model = out.model;
   model.kind = BodyModelKind::SMPLX;
-  model.joint_names.assign(kJointNames.begin(), kJointNames.end());
-  model.parents.assign(kParents.begin(), kParents.end());
+  model.joint_names = kJointNames;
+  model.parents = kParents;
   RowMatrixXd vertices(n, 3);
   for (int v = 0; v < n; ++v) vertices.row(v) = body.mesh.points[v].transpose();
   model.faces.resize(static_cast<Eigen::Index>(body.mesh.triangles.size()), 3);
