@@ -58,7 +58,7 @@ bool Args::parse(const std::vector<std::string>& arguments) {
       if (!spec) throw UsageError("unknown option --" + name);
       if (spec->is_flag) {
         if (inline_value) throw UsageError("option --" + name + " takes no value");
-        values_[name] = "1";
+        flags_.insert(name);
         continue;
       }
       if (!inline_value) {
@@ -75,7 +75,7 @@ bool Args::parse(const std::vector<std::string>& arguments) {
   return true;
 }
 
-bool Args::has(const std::string& name) const { return values_.count(name) > 0; }
+bool Args::has(const std::string& name) const { return values_.count(name) > 0 || flags_.count(name) > 0; }
 
 std::optional<std::string> Args::get_optional(const std::string& name) const {
   if (auto it = values_.find(name); it != values_.end()) return it->second;
@@ -108,7 +108,7 @@ long long Args::get_int(const std::string& name) const {
   return value;
 }
 
-bool Args::get_flag(const std::string& name) const { return has(name); }
+bool Args::get_flag(const std::string& name) const { return flags_.count(name) > 0; }
 
 std::string Args::help() const {
   std::ostringstream out;

@@ -5,6 +5,7 @@
 
 #include <map>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -50,6 +51,7 @@ class Args {
   std::vector<Spec> options_;
   std::vector<Spec> positionals_;
   std::map<std::string, std::string> values_;
+  std::set<std::string> flags_;
 };
 
 }  // namespace odyssey::cli
