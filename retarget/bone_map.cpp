@@ -1,0 +1,480 @@
+#include "retarget/bone_map.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <filesystem>
+#include <optional>
+#include <string_view>
+#include <tuple>
+
+#include "mocap_io/input_error.h"
+#include "retarget/geometry.h"
+
+namespace odyssey::retarget {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// ---------------------------------------------------------------------------------------------
+// Names.
+
+enum class Side { none, left, right };
+
+struct ParsedName {
+  Side side = Side::none;
+  std::vector<std::string> words;  // lower case, side markers and rig prefixes removed
+  int number = -1;                 // the first number after the first word, -1 when none
+  bool end_marker = false;         // HeadTop_End, LeftToe_End, Bip01 L Toe0Nub, ...
+};
+
+bool is_upper(char c) { return std::isupper(static_cast<unsigned char>(c)) != 0; }
+bool is_lower(char c) { return std::islower(static_cast<unsigned char>(c)) != 0; }
+bool is_digit(char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; }
+bool is_alnum(char c) { return std::isalnum(static_cast<unsigned char>(c)) != 0; }
+
+// Splits at non-alphanumerics, at letter/digit changes, before an upper-case letter that follows
+// a lower-case one ("UpLeg" -> Up Leg) and before the last of a run of capitals that starts a
+// word ("LThumb" -> L Thumb, "LHipJoint" -> L Hip Joint).
+std::vector<std::string> split_words(std::string_view name) {
+  std::vector<std::string> words;
+  std::string current;
+  const auto flush = [&] {
+    if (current.empty()) return;
+    std::transform(current.begin(), current.end(), current.begin(),
+                   [](char c) { return static_cast<char>(std::tolower(static_cast<unsigned char>(c))); });
+    words.push_back(current);
+    current.clear();
+  };
+  for (std::size_t i = 0; i < name.size(); ++i) {
+    const char c = name[i];
+    if (!is_alnum(c)) {
+      flush();
+      continue;
+    }
+    if (!current.empty()) {
+      const char previous = current.back();
+      const bool boundary = is_digit(c) != is_digit(previous) || (is_lower(previous) && is_upper(c)) ||
+                            (is_upper(previous) && is_upper(c) && i + 1 < name.size() && is_lower(name[i + 1]));
+      if (boundary) flush();
+    }
+    current += c;
+  }
+  flush();
+  return words;
+}
+
+ParsedName parse_joint_name(std::string_view name) {
+  if (const auto colon = name.rfind(':'); colon != std::string_view::npos) name = name.substr(colon + 1);
+  static const std::vector<std::string_view> kRigPrefixes = {"mixamorig", "bip", "def", "b", "bn", "jnt", "joint",
+                                                             "bone", "smplhf"};
+  static const std::vector<std::string_view> kEndMarkers = {"end", "nub", "tip", "site"};
+  ParsedName parsed;
+  const auto set_side = [&](Side side) {
+    if (parsed.side == Side::none) parsed.side = side;
+  };
+  for (std::string word : split_words(name)) {
+    if (word == "l" || word == "left") {
+      set_side(Side::left);
+      continue;
+    }
+    if (word == "r" || word == "right") {
+      set_side(Side::right);
+      continue;
+    }
+    // "lefthand" in names written without separators or case changes.
+    if (word.size() > 4 && word.starts_with("left")) {
+      set_side(Side::left);
+      word = word.substr(4);
+    } else if (word.size() > 5 && word.starts_with("right")) {
+      set_side(Side::right);
+      word = word.substr(5);
+    }
+    if (std::find(kEndMarkers.begin(), kEndMarkers.end(), word) != kEndMarkers.end()) parsed.end_marker = true;
+    if (is_digit(word.front())) {
+      if (!parsed.words.empty() && parsed.number < 0 && word.size() <= 3) {
+        std::from_chars(word.data(), word.data() + word.size(), parsed.number);
+      }
+      continue;
+    }
+    if (std::find(kRigPrefixes.begin(), kRigPrefixes.end(), word) != kRigPrefixes.end()) continue;
+    parsed.words.push_back(word);
+  }
+  return parsed;
+}
+
+// A body joint named by `key` (the words run together): the canonical joint (left side for
+// sided roles) and a rank, 0 for an unambiguous word, 1 for a word other conventions use for a
+// neighbouring joint.
+struct Synonym {
+  std::string_view key;
+  int left_canonical;  // for unsided roles, the joint itself
+  bool sided;
+  int rank;
+};
+
+const std::vector<Synonym>& synonyms() {
+  using namespace canonical;
+  static const std::vector<Synonym> kSynonyms = {
+      {"hips", pelvis, false, 0},        {"pelvis", pelvis, false, 0},        {"hip", pelvis, false, 1},
+      {"neck", neck, false, 0},          {"head", head, false, 0},            {"jaw", jaw, false, 0},
+      {"eye", left_eye, true, 0},        {"collar", left_collar, true, 0},    {"clavicle", left_collar, true, 0},
+      {"clav", left_collar, true, 0},    {"shoulder", left_collar, true, 1},  {"upperarm", left_shoulder, true, 0},
+      {"arm", left_shoulder, true, 0},   {"uparm", left_shoulder, true, 0},   {"humerus", left_shoulder, true, 0},
+      {"shoulder", left_shoulder, true, 1}, {"forearm", left_elbow, true, 0}, {"lowerarm", left_elbow, true, 0},
+      {"elbow", left_elbow, true, 0},    {"loarm", left_elbow, true, 0},      {"wrist", left_wrist, true, 0},
+      {"hand", left_wrist, true, 1},     {"upleg", left_hip, true, 0},        {"upperleg", left_hip, true, 0},
+      {"thigh", left_hip, true, 0},      {"femur", left_hip, true, 0},        {"hip", left_hip, true, 1},
+      {"knee", left_knee, true, 0},      {"shin", left_knee, true, 0},        {"calf", left_knee, true, 0},
+      {"lowerleg", left_knee, true, 0},  {"loleg", left_knee, true, 0},       {"leg", left_knee, true, 1},
+      {"ankle", left_ankle, true, 0},    {"foot", left_ankle, true, 1},       {"toe", left_foot, true, 0},
+      {"toes", left_foot, true, 0},      {"toebase", left_foot, true, 0},     {"ball", left_foot, true, 0},
+      {"foot", left_foot, true, 1},
+  };
+  return kSynonyms;
+}
+
+// Finger words -> the canonical finger name stem.
+std::optional<std::string_view> finger_of(const std::string& word) {
+  if (word == "thumb") return "thumb";
+  if (word == "index" || word == "pointer") return "index";
+  if (word == "middle") return "middle";
+  if (word == "ring") return "ring";
+  if (word == "pinky" || word == "pinkie" || word == "little") return "pinky";
+  return std::nullopt;
+}
+
+int sided(int left_canonical, Side side) {
+  return side == Side::left ? left_canonical : canonical_mirror(left_canonical);
+}
+
+struct Candidate {
+  int joint;
+  int rank;
+};
+
+// A prefix every joint name shares, up to and including a separator ("Character1_" in
+// MotionBuilder exports, "mixamorig:" in Mixamo's): it names the rig, not the joint.
+std::size_t shared_prefix_length(const Skeleton& rig) {
+  if (rig.joint_count() < 2) return 0;
+  std::string_view prefix = rig.name(0);
+  for (const std::string& name : rig.names()) {
+    std::size_t n = 0;
+    while (n < prefix.size() && n < name.size() && prefix[n] == name[n]) ++n;
+    prefix = prefix.substr(0, n);
+  }
+  const std::size_t separator = prefix.find_last_of(":_.- ");
+  return separator == std::string_view::npos ? 0 : separator + 1;
+}
+
+// Which canonical joints each rig joint's name could play.
+std::vector<std::vector<Candidate>> name_candidates(const Skeleton& rig) {
+  std::vector<std::vector<Candidate>> by_canonical(kCanonicalJointCount);
+  const std::size_t prefix = shared_prefix_length(rig);
+  for (int j = 0; j < rig.joint_count(); ++j) {
+    const ParsedName parsed = parse_joint_name(std::string_view(rig.name(j)).substr(prefix));
+    if (parsed.end_marker || parsed.words.empty()) continue;
+    std::optional<std::string_view> finger;
+    for (const std::string& word : parsed.words) {
+      if (!finger) finger = finger_of(word);
+    }
+    if (finger) {
+      if (parsed.side == Side::none) continue;
+      const int number = parsed.number < 0 ? 1 : parsed.number;
+      if (number < 1 || number > 3) continue;
+      const std::string name = std::string(parsed.side == Side::left ? "left_" : "right_") + std::string(*finger) +
+                               std::to_string(number);
+      by_canonical[canonical_index(name)].push_back({j, parsed.number < 0 ? 1 : 0});
+      continue;
+    }
+    std::string key;
+    for (const std::string& word : parsed.words) key += word;
+    for (const Synonym& synonym : synonyms()) {
+      if (synonym.key != key || synonym.sided != (parsed.side != Side::none)) continue;
+      const int canonical = synonym.sided ? sided(synonym.left_canonical, parsed.side) : synonym.left_canonical;
+      by_canonical[canonical].push_back({j, synonym.rank});
+    }
+  }
+  return by_canonical;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Hierarchy helpers.
+
+int lowest_common_ancestor(const Skeleton& rig, int a, int b) {
+  for (int j = a; j >= 0; j = rig.parent(j)) {
+    if (is_ancestor(rig, j, b)) return j;
+  }
+  return -1;
+}
+
+// Joints that sit on their parent at rest (CMU's LHipJoint, LowerBack, Neck): they carry no bone.
+std::vector<bool> sits_on_parent(const Skeleton& rig) {
+  const std::vector<RigidTransform<double>> rest = rig.rest_world();
+  Eigen::AlignedBox3d box;
+  for (const auto& joint : rest) box.extend(joint.translation);
+  const double tolerance = 1e-4 * std::max(box.diagonal().norm(), 1e-12);
+  std::vector<bool> result(rig.joint_count(), false);
+  for (int j = 0; j < rig.joint_count(); ++j) {
+    result[j] = rig.parent(j) >= 0 && rig.rest_offsets()[j].norm() < tolerance;
+  }
+  return result;
+}
+
+// The order in which canonical joints claim their candidates: the roles whose words are also
+// used for a neighbour claim first (upper arm before clavicle, ankle before the ball of the foot,
+// knee before ankle), so the leftover word falls to the neighbour.
+std::vector<int> claim_order() {
+  using namespace canonical;
+  std::vector<int> order = {pelvis,        head,          neck,         jaw,         left_eye,    right_eye,
+                            left_shoulder, right_shoulder, left_collar, right_collar, left_elbow, right_elbow,
+                            left_wrist,    right_wrist,   left_hip,     right_hip,    left_knee,  right_knee,
+                            left_ankle,    right_ankle,   left_foot,    right_foot};
+  for (int c = left_index1; c < kCanonicalJointCount; ++c) order.push_back(c);
+  return order;
+}
+
+}  // namespace
+
+BoneMap bone_map_from_names(const Skeleton& rig) {
+  using namespace canonical;
+  const std::vector<std::vector<Candidate>> candidates = name_candidates(rig);
+  const std::vector<bool> helper = sits_on_parent(rig);
+  BoneMap map;
+  map.origin = "joint names";
+  std::vector<bool> claimed(rig.joint_count(), false);
+  for (int c : claim_order()) {
+    const Candidate* best = nullptr;
+    for (const Candidate& candidate : candidates[c]) {
+      if (claimed[candidate.joint]) continue;
+      const auto key = [&](const Candidate& x) { return std::tuple(x.rank, helper[x.joint] ? 1 : 0, x.joint); };
+      if (!best || key(candidate) < key(*best)) best = &candidate;
+    }
+    if (best) {
+      map.joints[c] = best->joint;
+      claimed[best->joint] = true;
+    }
+  }
+
+  // The pelvis is where both legs and the spine meet.
+  if (map.mapped(left_hip) && map.mapped(right_hip)) {
+    const int legs_meet = lowest_common_ancestor(rig, map.joints[left_hip], map.joints[right_hip]);
+    const int named = map.joints[pelvis];
+    if (legs_meet >= 0 && (named < 0 || !is_ancestor(rig, named, legs_meet))) {
+      if (map.canonical_of(legs_meet) >= 0) map.joints[map.canonical_of(legs_meet)] = -1;
+      map.joints[pelvis] = legs_meet;
+    }
+  }
+
+  // The spine: the chain from the pelvis to the chest the neck and both arms hang from.
+  std::vector<int> hanging;
+  for (const auto& [collar, upper_arm] : {std::pair(left_collar, left_shoulder), std::pair(right_collar, right_shoulder)}) {
+    if (map.mapped(collar)) hanging.push_back(map.joints[collar]);
+    else if (map.mapped(upper_arm)) hanging.push_back(map.joints[upper_arm]);
+  }
+  if (map.mapped(neck)) hanging.push_back(map.joints[neck]);
+  else if (map.mapped(head)) hanging.push_back(map.joints[head]);
+  if (map.mapped(pelvis) && hanging.size() >= 2) {
+    int chest = hanging[0];
+    for (std::size_t k = 1; k < hanging.size() && chest >= 0; ++k) chest = lowest_common_ancestor(rig, chest, hanging[k]);
+    const int pelvis_joint = map.joints[pelvis];
+    if (chest >= 0 && chest != pelvis_joint && is_ancestor(rig, pelvis_joint, chest) && map.canonical_of(chest) < 0) {
+      map.joints[spine3] = chest;
+      std::vector<int> chain;  // between pelvis and chest, walked down from the chest
+      for (int j = rig.parent(chest); j != pelvis_joint; j = rig.parent(j)) {
+        if (!helper[j] && map.canonical_of(j) < 0) chain.push_back(j);
+      }
+      std::reverse(chain.begin(), chain.end());  // now from the pelvis up
+      if (!chain.empty()) map.joints[spine1] = chain.front();
+      if (chain.size() >= 2) map.joints[spine2] = chain.back();
+    }
+  }
+  return map;
+}
+
+namespace {
+
+// The preset's map restricted to the joints the rig has, or an empty map when the rig lacks one of
+// the preset's body joints (pelvis .. wrists; hands and face may be missing, as on a Mixamo rig
+// exported without fingers). `found` counts the entries taken.
+BoneMap map_from_preset_where_found(const Skeleton& rig, const io::BoneMapFile& preset, const std::string& name,
+                                    int& found) {
+  BoneMap map;
+  map.origin = "preset " + name;
+  found = 0;
+  for (const io::BoneMapEntry& entry : preset.entries) {
+    const int c = canonical_index(entry.canonical);
+    if (c < 0) throw io::InputError("preset " + name, "unknown canonical joint '" + entry.canonical + "'");
+    if (entry.rig_joints.empty()) continue;
+    const int joint = rig.find(entry.rig_joints.front());
+    if (joint < 0 && c <= canonical::right_wrist) {
+      found = 0;
+      return BoneMap();
+    }
+    if (joint < 0) continue;
+    map.joints[c] = joint;
+    ++found;
+    for (std::size_t k = 1; k < entry.rig_joints.size(); ++k) {
+      const int follower = rig.find(entry.rig_joints[k]);
+      if (follower >= 0) map.followers.push_back({follower, c});
+    }
+  }
+  return map;
+}
+
+std::string joined(const std::vector<std::string>& items, const char* separator) {
+  std::string text;
+  for (std::size_t i = 0; i < items.size(); ++i) text += (i ? separator : "") + items[i];
+  return text;
+}
+
+// Applies entries to `map`; every name must exist.
+void apply_entries(BoneMap& map, const Skeleton& rig, const io::BoneMapFile& file, const std::string& origin) {
+  for (const io::BoneMapEntry& entry : file.entries) {
+    const int c = canonical_index(entry.canonical);
+    if (c < 0) {
+      throw io::InputError(origin, "'" + entry.canonical + "' is not a canonical (SMPL-X) joint name");
+    }
+    std::vector<int> joints;
+    for (const std::string& name : entry.rig_joints) {
+      const int joint = rig.find(name);
+      if (joint < 0) {
+        throw io::InputError(origin, "the rig has no joint '" + name + "' (mapped to '" + entry.canonical + "')");
+      }
+      joints.push_back(joint);
+    }
+    // Whatever played this role, or was claimed by the new entry elsewhere, is released first.
+    std::erase_if(map.followers, [&](const BoneMap::Follower& f) {
+      return f.canonical == c || std::find(joints.begin(), joints.end(), f.joint) != joints.end();
+    });
+    for (int joint : joints) {
+      if (const int previous = map.canonical_of(joint); previous >= 0) map.joints[previous] = -1;
+    }
+    map.joints[c] = joints.empty() ? -1 : joints.front();
+    for (std::size_t k = 1; k < joints.size(); ++k) map.followers.push_back({joints[k], c});
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+int BoneMap::canonical_of(int rig_joint) const {
+  for (int c = 0; c < kCanonicalJointCount; ++c) {
+    if (joints[c] == rig_joint) return c;
+  }
+  return -1;
+}
+
+int BoneMap::mapped_count() const {
+  return static_cast<int>(std::count_if(joints.begin(), joints.end(), [](int j) { return j >= 0; }));
+}
+
+std::vector<std::string> preset_names() {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(ODYSSEY_PRESET_DIR)) {
+    if (entry.path().extension() == ".json") names.push_back(entry.path().stem().string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+io::BoneMapFile load_preset(const std::string& name) {
+  const fs::path path = fs::path(ODYSSEY_PRESET_DIR) / (name + ".json");
+  if (!fs::exists(path)) {
+    throw io::InputError(path.string(), "no bone map preset '" + name + "' (presets: " + joined(preset_names(), ", ") + ")");
+  }
+  return io::load_bone_map_file(path.string());
+}
+
+BoneMap bone_map_from_file(const Skeleton& rig, const io::BoneMapFile& file, const std::string& origin) {
+  BoneMap map;
+  map.origin = origin;
+  apply_entries(map, rig, file, origin);
+  return map;
+}
+
+BoneMap detect_bone_map(const Skeleton& rig) {
+  BoneMap best;
+  int best_found = 0;
+  for (const std::string& name : preset_names()) {
+    int found = 0;
+    BoneMap map = map_from_preset_where_found(rig, load_preset(name), name, found);
+    if (found > best_found && humanoid_problems(rig, map).empty()) {
+      best = std::move(map);
+      best_found = found;
+    }
+  }
+  return best_found > 0 ? best : bone_map_from_names(rig);
+}
+
+void override_bone_map(BoneMap& map, const Skeleton& rig, const io::BoneMapFile& user, const std::string& origin) {
+  apply_entries(map, rig, user, origin);
+  map.origin = "user map " + origin + " over " + map.origin;
+}
+
+std::vector<std::string> humanoid_problems(const Skeleton& rig, const BoneMap& map) {
+  using namespace canonical;
+  std::vector<std::string> problems;
+  std::vector<std::string> missing;
+  for (int c : {pelvis, head, left_hip, right_hip, left_knee, right_knee, left_ankle, right_ankle, left_shoulder,
+                right_shoulder, left_elbow, right_elbow, left_wrist, right_wrist}) {
+    if (!map.mapped(c)) missing.emplace_back(canonical_name(c));
+  }
+  if (!map.mapped(spine1) && !map.mapped(spine2) && !map.mapped(spine3)) missing.emplace_back("a spine joint");
+  if (!missing.empty()) {
+    problems.push_back("no joint plays " + joined(missing, ", "));
+    return problems;
+  }
+  const std::vector<RigidTransform<double>> rest = rig.rest_world();
+  const auto at = [&](int c) -> const Eigen::Vector3d& { return rest[map.joints[c]].translation; };
+  const auto name = [&](int c) { return std::string(canonical_name(c)) + " (" + rig.name(map.joints[c]) + ")"; };
+  const auto require_above = [&](int upper, int lower) {
+    if (!(at(upper).z() > at(lower).z())) {
+      problems.push_back("in the rest pose the " + name(upper) + " is not above the " + name(lower));
+    }
+  };
+  require_above(head, pelvis);
+  require_above(pelvis, left_knee);
+  require_above(pelvis, right_knee);
+  require_above(left_knee, left_ankle);
+  require_above(right_knee, right_ankle);
+  if (map.mapped(left_foot) && map.mapped(right_foot)) {
+    // Facing from the feet (ankle -> ball of the foot); the rig's left is up x facing.
+    Eigen::Vector3d facing = (at(left_foot) - at(left_ankle)) + (at(right_foot) - at(right_ankle));
+    facing.z() = 0;
+    Eigen::Vector3d leftward = (at(left_hip) - at(right_hip)) + (at(left_shoulder) - at(right_shoulder));
+    leftward.z() = 0;
+    if (facing.norm() > 1e-9 && Eigen::Vector3d::UnitZ().cross(facing).dot(leftward) < 0) {
+      problems.push_back("left and right are swapped: the joints mapped to left_* are on the rig's right (judged by "
+                         "where the feet point)");
+    }
+  }
+  return problems;
+}
+
+BoneMap humanoid_bone_map(const Skeleton& rig, const std::string& rig_label, const std::string& user_map_path) {
+  BoneMap map = detect_bone_map(rig);
+  if (!user_map_path.empty()) override_bone_map(map, rig, io::load_bone_map_file(user_map_path), user_map_path);
+  const std::vector<std::string> problems = humanoid_problems(rig, map);
+  if (!problems.empty()) {
+    throw io::InputError(rig_label, "not a humanoid rig (bone map from " + map.origin + "): " + joined(problems, "; "));
+  }
+  return map;
+}
+
+std::vector<int> unmapped_joints(const Skeleton& rig, const BoneMap& map) {
+  std::vector<bool> used(rig.joint_count(), false);
+  for (int joint : map.joints) {
+    if (joint >= 0) used[joint] = true;
+  }
+  for (const BoneMap::Follower& follower : map.followers) used[follower.joint] = true;
+  std::vector<int> result;
+  for (int j = 0; j < rig.joint_count(); ++j) {
+    if (!used[j]) result.push_back(j);
+  }
+  return result;
+}
+
+}  // namespace odyssey::retarget

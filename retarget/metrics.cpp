@@ -1,0 +1,187 @@
+#include "retarget/metrics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "retarget/geometry.h"
+
+namespace odyssey::retarget {
+
+namespace {
+
+struct Accumulator {
+  double sum = 0, max = 0;
+  long samples = 0;
+  void add(double value) {
+    sum += value;
+    max = std::max(max, value);
+    ++samples;
+  }
+  double mean() const { return samples ? sum / samples : 0.0; }
+  DirectionError direction() const { return {mean(), max, samples}; }
+};
+
+// World rotations and positions of one frame of a clip, scaled, into reused buffers.
+struct FramePose {
+  std::vector<RigidTransform<double>> local, world;
+  std::vector<Eigen::Vector3d> position;
+
+  explicit FramePose(int joints) : local(joints), world(joints), position(joints) {}
+  void pose(const Clip& clip, int frame, double scale, const Eigen::Quaterniond& levelling) {
+    clip.local_pose(frame, local);
+    RigidTransform<double> base;
+    base.rotation = levelling.toRotationMatrix();
+    forward_kinematics<double>(clip.skeleton.parents(), local, world, base);
+    for (std::size_t j = 0; j < world.size(); ++j) position[j] = scale * world[j].translation;
+  }
+};
+
+// Skate, penetration/floating and jitter of one clip: streams the frames keeping the two before.
+void motion_metrics(const Clip& clip, double scale, const Feet& feet, const FootContacts& contacts,
+                    const std::vector<int>& jitter_joints, const MetricThresholds& thresholds, RetargetMetrics& metrics) {
+  const int frames = clip.frame_count();
+  const int joints = clip.joint_count();
+  FramePose before2(joints), before(joints), now(joints);
+  long skating = 0, skate_samples = 0, contact_samples = 0;
+  double depth_sum = 0, height_sum = 0, jitter_sum = 0;
+  long jitter_samples = 0;
+  Feet scaled_feet = feet;
+  for (Foot& foot : scaled_feet.sides) {
+    for (double& height : foot.ground_heights) height *= scale;
+  }
+  for (int f = 0; f < frames; ++f) {
+    now.pose(clip, f, scale, feet.levelling);
+    for (int side = 0; side < 2; ++side) {
+      const Foot& foot = scaled_feet[side];
+      const double clearance = foot_clearance(foot, now.position);
+      if (contacts.planted[side][f]) {
+        depth_sum += std::max(0.0, -clearance);
+        height_sum += std::max(0.0, clearance);
+        ++contact_samples;
+      }
+      if (f > 0) {
+        const int lowest = lowest_foot_joint(foot, before.position);
+        const double clearance_before = before.position[foot.joints[lowest]].z() - foot.ground_heights[lowest];
+        const Eigen::Vector3d step = now.position[foot.joints[lowest]] - before.position[foot.joints[lowest]];
+        const bool in_contact = clearance_before < thresholds.contact_height && clearance < thresholds.contact_height;
+        if (in_contact && step.head<2>().norm() * clip.fps > thresholds.skate_speed) ++skating;
+        ++skate_samples;
+      }
+    }
+    if (f > 1) {
+      for (int j : jitter_joints) {
+        jitter_sum += (now.position[j] - 2.0 * before.position[j] + before2.position[j]).norm() * clip.fps * clip.fps;
+        ++jitter_samples;
+      }
+    }
+    std::swap(before2, before);
+    std::swap(before, now);
+  }
+  metrics.foot_skate_ratio = skate_samples ? static_cast<double>(skating) / skate_samples : 0.0;
+  metrics.penetration_cm = contact_samples ? 100.0 * depth_sum / contact_samples : 0.0;
+  metrics.floating_cm = contact_samples ? 100.0 * height_sum / contact_samples : 0.0;
+  metrics.jitter = jitter_samples ? jitter_sum / jitter_samples : 0.0;
+}
+
+std::vector<int> paired_joints(const RetargetRig& rig, bool source) {
+  std::vector<int> joints;
+  for (int c : rig.paired) joints.push_back(source ? rig.source_joint(c) : rig.target_joint(c));
+  return joints;
+}
+
+void check_frames(const Clip& clip, int joints, int frames, const char* what) {
+  if (clip.joint_count() != joints) {
+    throw std::invalid_argument(std::string(what) + " clip has " + std::to_string(clip.joint_count()) +
+                                " joints, the rig's skeleton " + std::to_string(joints));
+  }
+  if (frames >= 0 && clip.frame_count() != frames) {
+    throw std::invalid_argument(std::string(what) + " clip has " + std::to_string(clip.frame_count()) +
+                                " frames, expected " + std::to_string(frames));
+  }
+}
+
+}  // namespace
+
+RetargetMetrics source_metrics(const RetargetRig& rig, const Clip& source, const Feet& feet, const FootContacts& contacts,
+                               const MetricThresholds& thresholds) {
+  check_frames(source, rig.source.joint_count(), contacts.frame_count(), "source");
+  RetargetMetrics metrics;
+  motion_metrics(source, rig.scale, feet, contacts, paired_joints(rig, true), thresholds, metrics);
+  return metrics;
+}
+
+RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const Feet& source_feet, const Clip& result,
+                               const Feet& target_feet, const FootContacts& contacts, const MetricThresholds& thresholds) {
+  check_frames(source, rig.source.joint_count(), contacts.frame_count(), "source");
+  check_frames(result, rig.target.joint_count(), contacts.frame_count(), "result");
+  RetargetMetrics metrics;
+  motion_metrics(result, 1.0, target_feet, contacts, paired_joints(rig, false), thresholds, metrics);
+
+  // Direction and end-effector errors, frame by frame.
+  const std::vector<RigidTransform<double>> target_rest = rig.target.rest_world();
+  struct Bone {
+    const Segment* segment;
+    Eigen::Vector3d rest_chord_in_start;  // W^rest(T(a))^-1 (P^rest(T(c)) - P^rest(T(a))), detached bones
+    Accumulator error;
+  };
+  std::vector<Bone> bones;
+  for (const Segment& segment : rig.segments) {
+    if (segment.degenerate) continue;
+    const RigidTransform<double>& start = target_rest[segment.target_start];
+    bones.push_back({&segment, start.rotation.transpose() * (target_rest[segment.target_end].translation - start.translation), {}});
+  }
+  std::vector<int> effectors;
+  for (int c : {canonical::head, canonical::left_wrist, canonical::right_wrist, canonical::left_ankle, canonical::right_ankle}) {
+    if (rig.source_map.mapped(c) && rig.target_map.mapped(c)) effectors.push_back(c);
+  }
+  const int source_pelvis = rig.source_joint(canonical::pelvis);
+  const int target_pelvis = rig.target_joint(canonical::pelvis);
+  FramePose source_pose(source.joint_count()), target_pose(result.joint_count());
+  Accumulator effector_error;
+  for (int f = 0; f < result.frame_count(); ++f) {
+    source_pose.pose(source, f, rig.scale, source_feet.levelling);
+    target_pose.pose(result, f, 1.0, target_feet.levelling);
+    for (Bone& bone : bones) {
+      const Segment& segment = *bone.segment;
+      const Eigen::Vector3d source_direction = source_pose.position[segment.source_end] - source_pose.position[segment.source_start];
+      const Eigen::Vector3d target_direction =
+          segment.target_attached ? Eigen::Vector3d(target_pose.position[segment.target_end] - target_pose.position[segment.target_start])
+                                  : Eigen::Vector3d(target_pose.world[segment.target_start].rotation * bone.rest_chord_in_start);
+      bone.error.add(angle_deg(source_direction, target_direction));
+    }
+    for (int c : effectors) {
+      const Eigen::Vector3d target_relative = target_pose.position[rig.target_joint(c)] - target_pose.position[target_pelvis];
+      const Eigen::Vector3d source_relative = source_pose.position[rig.source_joint(c)] - source_pose.position[source_pelvis];
+      effector_error.add((target_relative - source_relative).norm());
+    }
+  }
+  metrics.end_effector_mean_m = effector_error.mean();
+  metrics.end_effector_max_m = effector_error.max;
+
+  Accumulator chain, branch;
+  std::vector<std::pair<std::string, Accumulator>> limbs;
+  for (const Bone& bone : bones) {
+    const Segment& segment = *bone.segment;
+    Accumulator& total = segment.branch ? branch : chain;
+    total.sum += bone.error.sum;
+    total.samples += bone.error.samples;
+    total.max = std::max(total.max, bone.error.max);
+    if (segment.branch) continue;
+    metrics.bones.push_back({std::string(canonical_name(segment.canonical_start)) + "->" +
+                                 std::string(canonical_name(segment.canonical_end)),
+                             bone.error.direction()});
+    const std::string limb(canonical_limb(segment.canonical_end));
+    auto it = std::find_if(limbs.begin(), limbs.end(), [&](const auto& entry) { return entry.first == limb; });
+    if (it == limbs.end()) it = limbs.insert(limbs.end(), {limb, Accumulator{}});
+    it->second.sum += bone.error.sum;
+    it->second.samples += bone.error.samples;
+    it->second.max = std::max(it->second.max, bone.error.max);
+  }
+  metrics.bone_direction = chain.direction();
+  metrics.branch_direction = branch.direction();
+  for (const auto& [limb, accumulator] : limbs) metrics.limbs.push_back({limb, accumulator.direction()});
+  return metrics;
+}
+
+}  // namespace odyssey::retarget

@@ -1,0 +1,73 @@
+// The quality metrics of a retargeted clip: one definition (ARCHITECTURE.md, "Metrics"), used by
+// tests, benchmarks and reports. Lengths in metres unless a name says otherwise; the scaled source
+// is the source clip with every length multiplied by the rig's scale s.
+//
+// Bone direction error, degrees: per chain bone (rig.h: a non-degenerate segment whose start
+// joint starts no other) and frame, the angle between the source direction
+// p_S(S(c)) - p_S(S(a)) and the target direction p_T(T(c)) - p_T(T(a)); for a detached target
+// segment, the direction of a's bone: W_T(T(a), t) W_T^rest(T(a))^-1 (P_T^rest(T(c)) - P_T^rest(T(a))).
+// Mean and max over every (bone, frame), per limb (canonical_limb of the bone's end), and per
+// bone. A branch joint (the pelvis with its hips and spine, the chest with its neck and clavicles,
+// a wrist with its fingers) has no single bone direction: the angles between its child segments
+// are the rig's build (hip width, shoulder slope), which no rotation can change. Those segments
+// are reported apart, as `branch_direction`, with the same definition.
+// End-effector error, m: per frame and paired head, wrist and ankle e,
+//   | (p_T(e) - p_T(pelvis)) - s (p_S(e) - p_S(pelvis)) |,   mean and max.
+// Foot skate ratio: over every foot and every pair of consecutive frames (t, t+1), the share where
+// the foot is in contact (clearance, contacts.h, under 5 cm in both frames) and the foot joint that
+// is lowest in frame t moves faster than 0.5 m/s horizontally between t and t+1.
+// Penetration / floating, cm: over the (foot, frame) where the SOURCE foot is planted
+// (FootContacts), the mean of max(0, -clearance) and of max(0, clearance). The lowest foot point
+// is the lowest of the foot's joints (ankle, ball of the foot) relative to its ground height.
+// Jitter, m/s^2: the mean over frames 1..T-2 and paired joints of
+//   | p(t+1) - 2 p(t) + p(t-1) | fps^2.
+//
+// For the scaled source itself the comparative metrics (bone direction, end effector) are zero
+// and the others are measured on the source with its own feet.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "retarget/contacts.h"
+#include "retarget/rig.h"
+
+namespace odyssey::retarget {
+
+struct DirectionError {
+  double mean_deg = 0, max_deg = 0;
+  long samples = 0;  // (bone, frame) pairs
+};
+
+struct NamedDirectionError {
+  std::string name;  // "left_hip->left_knee", or a limb name
+  DirectionError error;
+};
+
+struct RetargetMetrics {
+  DirectionError bone_direction;
+  std::vector<NamedDirectionError> limbs;  // limbs that have chain bones, canonical order
+  std::vector<NamedDirectionError> bones;  // every chain bone
+  DirectionError branch_direction;
+  double end_effector_mean_m = 0, end_effector_max_m = 0;
+  double foot_skate_ratio = 0;
+  double penetration_cm = 0, floating_cm = 0;
+  double jitter = 0;  // m/s^2
+};
+
+struct MetricThresholds {
+  double contact_height = 0.05;  // m
+  double skate_speed = 0.5;      // m/s
+};
+
+// Metrics of the scaled source (see above). `feet` and `contacts` are the source's.
+RetargetMetrics source_metrics(const RetargetRig& rig, const Clip& source, const Feet& feet, const FootContacts& contacts,
+                               const MetricThresholds& thresholds = {});
+
+// Metrics of a result clip on rig.target against the source it was made from (read levelled by
+// source_feet.levelling). Feet from contacts.h; `contacts` are the source's. Throws
+// std::invalid_argument when the clips' frame counts or skeletons do not match the rig.
+RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const Feet& source_feet, const Clip& result,
+                               const Feet& target_feet, const FootContacts& contacts, const MetricThresholds& thresholds = {});
+
+}  // namespace odyssey::retarget

@@ -1,0 +1,309 @@
+#include "retarget/transfer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "retarget/geometry.h"
+
+namespace odyssey::retarget {
+
+namespace {
+
+constexpr double kBranchTwistWeight = 0.1;  // eps in transfer.h
+
+// The rotation factor R of the polar decomposition B = R S (S symmetric positive definite), the
+// rotation nearest B, by Newton's iteration X <- (X + X^-T) / 2, which converges quadratically
+// from any B with det B > 0; starting from B / cbrt(det B) (determinant 1) it settles to 1e-12 in
+// about five steps for the nearly orthogonal B met here. A B that is singular or mirrored (chords
+// all gone flat, which a real clip does not do) gives `fallback`.
+Eigen::Matrix3d rotation_factor(const Eigen::Matrix3d& b, const Eigen::Quaterniond& fallback) {
+  const double determinant = b.determinant();
+  if (!(determinant > 1e-12 * b.squaredNorm() * std::sqrt(b.squaredNorm()))) return fallback.toRotationMatrix();
+  Eigen::Matrix3d x = b / std::cbrt(determinant);
+  for (int step = 0; step < 30; ++step) {
+    const Eigen::Matrix3d next = 0.5 * (x + x.inverse().transpose());
+    const double change = (next - x).squaredNorm();
+    x = next;
+    if (change < 1e-26) break;
+  }
+  return x;
+}
+
+}  // namespace
+
+FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : rig_(rig), target_feet_(target_feet) {
+  const Skeleton& target = rig.target;
+  const int n = target.joint_count();
+  const std::vector<RigidTransform<double>> rest = target.rest_world();
+  rest_rotation_.resize(n);
+  for (int j = 0; j < n; ++j) rest_rotation_[j] = Eigen::Quaterniond(rest[j].rotation).normalized();
+  const std::vector<Eigen::Quaterniond>& rest_rotation = rest_rotation_;
+  const double s = rig.scale;
+  const int target_pelvis = rig.target_joint(canonical::pelvis);
+  const int source_pelvis = rig.source_joint(canonical::pelvis);
+  target_rest_pelvis_ = rest[target_pelvis].translation;
+
+  rules_.resize(n);
+  for (int j = 0; j < n; ++j) {
+    JointRule& rule = rules_[j];
+    rule.parent = target.parent(j);
+    rule.rest_local = target.rest_rotations()[j];
+    rule.offset = target.rest_offsets()[j];
+  }
+  const auto attach = [&](JointRule& rule, int joint, int anchor) {
+    rule.placement = JointRule::Placement::attached;
+    rule.anchor = anchor;
+    rule.anchor_offset = rest_rotation[anchor].conjugate() * (rest[joint].translation - rest[anchor].translation);
+  };
+  for (int c : rig.paired) {
+    const int j = rig.target_joint(c);
+    const int reference = rig.source_joint(c);
+    JointRule& rule = rules_[j];
+    rule.rotation = JointRule::Rotation::driven;
+    rule.reference = reference;
+    const Eigen::Quaterniond aligned_inverse = rig.source_aligned_world[reference].conjugate();
+    rule.reference_to_joint = aligned_inverse * rest_rotation[j];
+    std::vector<const Segment*> children;  // the non-degenerate segments starting at c
+    for (const Segment& segment : rig.segments) {
+      if (segment.canonical_start == c && !segment.degenerate) children.push_back(&segment);
+      if (segment.canonical_end == c && !segment.target_attached) {
+        if (is_ancestor(target, target_pelvis, j)) {
+          attach(rule, j, segment.target_start);
+        } else {
+          rule.placement = JointRule::Placement::effector;
+          rule.source_joint = rig.source_joint(c);
+          rule.rest_discrepancy = (rest[j].translation - rest[target_pelvis].translation) -
+                                  s * (rig.source_aligned_positions[rule.source_joint] - rig.source_aligned_positions[source_pelvis]);
+        }
+      }
+    }
+    if (children.size() == 1) {
+      rule.chord_from = children[0]->source_start;
+      rule.chord_to = children[0]->source_end;
+      rule.chord_rest = aligned_inverse * children[0]->target_rest_direction;
+    } else if (children.size() >= 2) {
+      rule.branch_first = static_cast<int>(branch_chords_.size());
+      rule.branch_count = static_cast<int>(children.size());
+      for (const Segment* segment : children) {
+        const Eigen::Vector3d aligned =
+            rig.source_aligned_positions[segment->source_end] - rig.source_aligned_positions[segment->source_start];
+        branch_chords_.push_back({segment->source_start, segment->source_end, aligned.normalized()});
+      }
+    }
+  }
+  for (const BoneMap::Follower& follower : rig.target_map.followers) {
+    const int anchor = rig.target_joint(follower.canonical);
+    if (anchor < 0) continue;
+    JointRule& rule = rules_[follower.joint];
+    rule.rotation = JointRule::Rotation::follower;
+    rule.anchor_to_joint = rest_rotation[anchor].conjugate() * rest_rotation[follower.joint];
+    attach(rule, follower.joint, anchor);
+  }
+  int root = target_pelvis;
+  while (target.parent(root) >= 0) root = target.parent(root);
+  rules_[root].placement = JointRule::Placement::root;
+  rules_[root].root_to_pelvis = rest_rotation[root].conjugate() * (rest[target_pelvis].translation - rest[root].translation);
+
+  // Evaluation order: depth-first over the dependencies (parent, anchor); a joint met again
+  // while still open is on a cycle.
+  std::vector<int> state(n, 0);  // 0 new, 1 open, 2 done
+  std::vector<std::pair<int, int>> stack;  // joint, next dependency to visit
+  for (int start = 0; start < n; ++start) {
+    if (state[start] == 2) continue;
+    stack.push_back({start, 0});
+    state[start] = 1;
+    while (!stack.empty()) {
+      auto& [joint, next] = stack.back();
+      const int dependencies[2] = {rules_[joint].parent, rules_[joint].anchor};
+      if (next < 2) {
+        const int dependency = dependencies[next++];
+        if (dependency < 0 || state[dependency] == 2) continue;
+        if (state[dependency] == 1) {
+          throw std::invalid_argument("target joint '" + target.name(dependency) +
+                                      "' is placed from a joint that depends on it (check the bone map)");
+        }
+        state[dependency] = 1;
+        stack.push_back({dependency, 0});
+        continue;
+      }
+      state[joint] = 2;
+      order_.push_back(joint);
+      stack.pop_back();
+    }
+  }
+
+  for (int j = 0; j < n; ++j) {
+    if (rules_[j].placement != JointRule::Placement::offset) translated_joints_.push_back(j);
+  }
+  root_track_ = static_cast<int>(std::find(translated_joints_.begin(), translated_joints_.end(), root) - translated_joints_.begin());
+
+  // Source joints to pose: everything the rules and the feet read, with their ancestors.
+  std::vector<bool> needed(rig.source.joint_count(), false);
+  const auto need = [&](int joint) {
+    for (int k = joint; k >= 0 && !needed[k]; k = rig.source.parent(k)) needed[k] = true;
+  };
+  need(source_pelvis);
+  for (const JointRule& rule : rules_) {
+    for (int joint : {rule.reference, rule.chord_from, rule.chord_to, rule.source_joint}) {
+      if (joint >= 0) need(joint);
+    }
+  }
+  for (int side = 0; side < 2; ++side) {
+    for (int c : {side == 0 ? canonical::left_ankle : canonical::right_ankle, side == 0 ? canonical::left_foot : canonical::right_foot}) {
+      if (rig.source_map.mapped(c)) need(rig.source_joint(c));
+    }
+  }
+  for (int k = 0; k < rig.source.joint_count(); ++k) {
+    if (needed[k]) source_needed_.push_back(k);
+  }
+}
+
+TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, const FootContacts& contacts) const {
+  const Skeleton& source_skeleton = rig_.source;
+  if (source.skeleton.names() != source_skeleton.names() || source.skeleton.parents() != source_skeleton.parents()) {
+    throw std::invalid_argument("the source clip's skeleton is not the one the retargeting rig was built for");
+  }
+  try {
+    source.validate();
+  } catch (const std::invalid_argument& error) {
+    throw std::invalid_argument(std::string("source clip: ") + error.what());
+  }
+  const int frames = source.frame_count();
+  if (contacts.frame_count() != frames) {
+    throw std::invalid_argument("contacts cover " + std::to_string(contacts.frame_count()) + " frames, the clip has " +
+                                std::to_string(frames));
+  }
+  const int source_joints = source.joint_count();
+  const int target_joints = rig_.target.joint_count();
+  const double s = rig_.scale;
+  const int source_pelvis = rig_.source_joint(canonical::pelvis);
+
+  // Where each posed source joint's local translation comes from: its rest offset, or the clip.
+  std::vector<int> translation_track(source_joints, -1);
+  for (std::size_t k = 0; k < source.translated_joints.size(); ++k) translation_track[source.translated_joints[k]] = static_cast<int>(k);
+  const std::size_t source_tracks = source.translated_joints.size();
+  const std::vector<Eigen::Vector3d>& source_offsets = source_skeleton.rest_offsets();
+  // The source is posed in its levelled world (contacts.h), its rest pelvis too.
+  const Eigen::Quaterniond& levelling = source_feet.levelling;
+  const Eigen::Vector3d source_rest_pelvis = levelling * rig_.source_rest_pelvis;
+
+  TransferResult result;
+  Clip& out = result.clip;
+  out.skeleton = rig_.target;
+  out.fps = source.fps;
+  out.translated_joints = translated_joints_;
+  const std::size_t tracks = translated_joints_.size();
+  out.rotations.resize(std::size_t(frames) * target_joints);
+  out.translations.resize(std::size_t(frames) * tracks);
+
+  std::vector<Eigen::Quaterniond> source_rotation(source_joints);
+  std::vector<Eigen::Vector3d> source_position(source_joints);
+  std::vector<Eigen::Quaterniond> world(target_joints);
+  std::vector<Eigen::Vector3d> position(target_joints);
+  double planted_sum = 0, all_sum = 0;
+  long planted_samples = 0, all_samples = 0;
+
+  for (int f = 0; f < frames; ++f) {
+    const Eigen::Quaterniond* local_rotation = &source.rotations[std::size_t(f) * source_joints];
+    const Eigen::Vector3d* local_translation = source.translations.data() + std::size_t(f) * source_tracks;
+    for (int k : source_needed_) {
+      const int p = source_skeleton.parent(k);
+      const Eigen::Vector3d& step = translation_track[k] >= 0 ? local_translation[translation_track[k]] : source_offsets[k];
+      if (p < 0) {
+        source_rotation[k] = levelling * local_rotation[k];
+        source_position[k] = levelling * step;
+      } else {
+        source_rotation[k] = source_rotation[p] * local_rotation[k];
+        source_position[k] = source_position[p] + source_rotation[p] * step;
+      }
+    }
+    const Eigen::Vector3d& pelvis_source = source_position[source_pelvis];
+    const Eigen::Vector3d pelvis_target = target_rest_pelvis_ + s * (pelvis_source - source_rest_pelvis);
+
+    for (int j : order_) {
+      const JointRule& rule = rules_[j];
+      const int p = rule.parent;
+      switch (rule.rotation) {
+        case JointRule::Rotation::rest:
+          world[j] = p < 0 ? rule.rest_local : world[p] * rule.rest_local;
+          break;
+        case JointRule::Rotation::driven: {
+          const Eigen::Quaterniond& reference = source_rotation[rule.reference];
+          if (rule.branch_count > 0) {
+            const Eigen::Quaterniond change = reference * rig_.source_aligned_world[rule.reference].conjugate();
+            Eigen::Matrix3d b = kBranchTwistWeight * change.toRotationMatrix();
+            for (int k = rule.branch_first; k < rule.branch_first + rule.branch_count; ++k) {
+              const BranchChord& chord = branch_chords_[k];
+              const Eigen::Vector3d now = (source_position[chord.to] - source_position[chord.from]).normalized();
+              b.noalias() += now * chord.aligned_direction.transpose();
+            }
+            world[j] = Eigen::Quaterniond(rotation_factor(b, change)) * rest_rotation_[j];
+          } else if (rule.chord_from >= 0) {
+            const Eigen::Vector3d carried = reference * rule.chord_rest;
+            const Eigen::Vector3d wanted = (source_position[rule.chord_to] - source_position[rule.chord_from]).normalized();
+            world[j] = shortest_rotation(carried, wanted) * reference * rule.reference_to_joint;
+          } else {
+            world[j] = reference * rule.reference_to_joint;
+          }
+          break;
+        }
+        case JointRule::Rotation::follower:
+          world[j] = world[rule.anchor] * rule.anchor_to_joint;
+          break;
+      }
+      switch (rule.placement) {
+        case JointRule::Placement::offset:
+          position[j] = p < 0 ? rule.offset : Eigen::Vector3d(position[p] + world[p] * rule.offset);
+          break;
+        case JointRule::Placement::root:
+          position[j] = pelvis_target - world[j] * rule.root_to_pelvis;
+          break;
+        case JointRule::Placement::effector: {
+          const Eigen::Quaterniond heading =
+              heading_of(source_rotation[rule.source_joint] * rig_.source_aligned_world[rule.source_joint].conjugate());
+          position[j] = pelvis_target + s * (source_position[rule.source_joint] - pelvis_source) + heading * rule.rest_discrepancy;
+          break;
+        }
+        case JointRule::Placement::attached:
+          position[j] = position[rule.anchor] + world[rule.anchor] * rule.anchor_offset;
+          break;
+      }
+    }
+
+    // Local rotations, sign-continuous; translations of the positioned joints.
+    Eigen::Quaterniond* out_rotation = &out.rotations[std::size_t(f) * target_joints];
+    const Eigen::Quaterniond* previous = f > 0 ? out_rotation - target_joints : nullptr;
+    for (int j = 0; j < target_joints; ++j) {
+      const int p = rules_[j].parent;
+      Eigen::Quaterniond local = p < 0 ? world[j] : world[p].conjugate() * world[j];
+      local.normalize();
+      const double reference_sign = previous ? local.dot(previous[j]) : local.w();
+      if (reference_sign < 0) local.coeffs() = -local.coeffs();
+      out_rotation[j] = local;
+    }
+    Eigen::Vector3d* out_translation = out.translations.data() + std::size_t(f) * tracks;
+    for (std::size_t t = 0; t < tracks; ++t) {
+      const int j = translated_joints_[t];
+      const int p = rules_[j].parent;
+      out_translation[t] = p < 0 ? position[j] : Eigen::Vector3d(world[p].conjugate() * (position[j] - position[p]));
+    }
+
+    for (int side = 0; side < 2; ++side) {
+      const double gap = s * foot_clearance(source_feet[side], source_position) - foot_clearance(target_feet_[side], position);
+      all_sum += gap;
+      ++all_samples;
+      if (contacts.planted[side][f]) {
+        planted_sum += gap;
+        ++planted_samples;
+      }
+    }
+  }
+
+  result.floor_offset = planted_samples > 0 ? planted_sum / planted_samples : (all_samples > 0 ? all_sum / all_samples : 0.0);
+  for (int f = 0; f < frames; ++f) out.translations[std::size_t(f) * tracks + root_track_].z() += result.floor_offset;
+  return result;
+}
+
+}  // namespace odyssey::retarget

@@ -1,0 +1,143 @@
+// Quality `fast`: rotation transfer from an aligned rest (rig.h), one pass over the clip, no
+// solver. Everything that does not change along the clip is precomputed per rig; the per-frame
+// loop is plain arithmetic on preallocated buffers (no allocation, no search).
+//
+// Rotations. For each target joint T(a) that plays a paired canonical joint a, with the source
+// joint S(a), world rotations Q_S(t) along the clip and Q_S^al in the aligned rest pose, and the
+// target's rest world rotation W^rest:
+//
+//   D(t)    = Q_S(S(a), t) Q_S^al(S(a))^-1        the source joint's world rotation change
+//   W(t)    = D(t) W^rest                          (the paper's transfer)
+//
+// then, when a is the start of exactly one non-degenerate segment (a chain bone, rig.h), the
+// bone is swung onto the source bone's direction exactly:
+//
+//   W(t)    = swing(D(t) v, u(t)) D(t) W^rest,     v = the target bone's rest direction,
+//                                                  u(t) = unit(p_S(S(c), t) - p_S(S(a), t)),
+//   swing(x, y) = the shortest rotation taking x to y = normalise(1 + x.y, x cross y).
+//
+// D(t) v equals u(t) already when the source segment is one rigid bone and the alignment is
+// exact; the swing makes the direction exact in every other case too (a source segment spanning
+// several bones, spine1 -> spine3 through spine2, or an alignment residual), while D(t) keeps the
+// twist about the bone. Leaves (head, hands, toes) take W(t) = D(t) W^rest. A branch joint (the
+// pelvis with hips and spine, a chest with neck and clavicles, a wrist with fingers; rig.h) takes
+// the rotation that best carries the source's chords from the aligned rest to frame t:
+//
+//   W(t) = R(t) W^rest,   R(t) = argmin over rotations R of  sum_k |R u_k^al - u_k(t)|^2 + eps |R - D(t)|^2
+//                              = the rotation factor of  B = sum_k u_k(t) u_k^al^T + eps D(t),
+//
+// u_k the unit chords from S(a) to each child S(c_k) (aligned rest and frame t), eps = 0.1 (D(t)
+// only settles what the chords leave open, the twist about collinear chords). R(t) is D(t) when
+// the chords are rigid with S(a) (a pelvis); when they are not (a target torso joint playing
+// spine1 whose neck and shoulders hang from the source's spine3, two bones higher), it follows
+// where the children went. The factor comes from Newton's polar iteration
+// X <- (X + X^-T) / 2 started from B / cbrt(det B): no SVD, a handful of 3x3 inverses. The
+// target's branch chords keep whatever angle the two rigs' builds put between them at rest
+// (hip width, shoulder slope); metrics.h reports them apart. The output is local:
+// W(parent)^-1 W(t). A target joint with no paired role keeps its rest local rotation, so it
+// rides rigidly on its parent.
+//
+// The source is read in its levelled world (contacts.h: a tilted capture floor is turned level),
+// so Q_S and p_S below are the levelled source's.
+//
+// Root motion. The target pelvis joint is put at
+//   P*(t) = P_T^rest(pelvis) + s (p_S(pelvis, t) - p_S^rest(pelvis)) + (0, 0, dz)
+// by translating the target skeleton's root (the pelvis itself, or a root above it that keeps its
+// rest rotation, as RobotExpressive's `Bone`). dz keeps the floor: with clearances as in
+// contacts.h, dz is chosen so that over the frames where a source foot is planted the target
+// foot's clearance equals the scaled source foot's on average:
+//   dz = mean over planted (foot, t) of [ s clearance_S(t) - clearance_T(t) ]   (before dz),
+// or over every (foot, t) when the source never plants a foot. One constant for the clip: a
+// leg-length ratio that differs from the height ratio would otherwise leave the target floating
+// or sinking by the difference, and a per-frame correction would add jitter.
+//
+// Joints placed by position (they become animated translations in the output clip):
+// - IK effectors: a target joint whose segment is detached (rig.h) and that does not hang below
+//   the target pelvis, as RobotExpressive's feet under the root bone. It goes where the scaled
+//   source joint is relative to the source pelvis:
+//     P(t) = P*(t) + s (p_S(S(c), t) - p_S(pelvis, t)) + H(t) d,
+//     d    = (P_T^rest(c) - P_T^rest(pelvis)) - s (p_S^al(S(c)) - p_S^al(pelvis)),
+//   where d is the rest-pose difference between the target's and the scaled source's leg (the
+//   robot's legs are short for its height, its feet wide apart) and H(t) the source joint's own
+//   turn about the vertical (the twist about z of D(t) of S(c)), so d turns as the foot turns
+//   and the stance stays as wide as the target's when the body has turned round. The pelvis
+//   terms cancel (P* moves with s p_S(pelvis)), so P(t) = s p_S(S(c), t) + H(t) d + constant: a
+//   planted source foot, which neither moves nor turns, gives a still target foot, on the floor
+//   (dz). (The pelvis's turn would swing d, and the foot with it, at every step: the pelvis yaws
+//   back and forth while the foot is planted.) Its rotation is transferred like any other joint;
+//   the shin above it still follows the source shin's direction (the detached segment's rest
+//   direction is the shin's, rig.h). The foot's height follows the source ankle, so on a rig
+//   without a ball-of-the-foot joint the foot joint rises with the source heel at toe-off.
+// - A detached joint that hangs inside the body (a thumb parented to the forearm instead of the
+//   palm), and followers (bone_map.h), ride rigidly on their canonical parent's target joint A:
+//     P(t) = P(A, t) + W(A, t) W^rest(A)^-1 (P_T^rest(joint) - P_T^rest(A)).
+//   Followers also take their rotation from A: W(t) = W(A, t) W^rest(A)^-1 W^rest.
+//
+// Quaternion signs are kept continuous along the clip (each local rotation is the sign of the
+// two nearest the previous frame's; the first frame has w >= 0).
+#pragma once
+
+#include <vector>
+
+#include "retarget/contacts.h"
+#include "retarget/rig.h"
+
+namespace odyssey::retarget {
+
+struct TransferResult {
+  Clip clip;                // on rig.target, at the source's frame rate
+  double floor_offset = 0;  // dz above, m
+};
+
+class FastTransfer {
+ public:
+  // Precomputes the per-joint plan. The rig must outlive the transfer. Throws
+  // std::invalid_argument when the placements depend on each other in a cycle (a map that puts a
+  // canonical parent below its child).
+  FastTransfer(const RetargetRig& rig, const Feet& target_feet);
+
+  // `source` must be a clip on rig.source's skeleton; `source_feet` and `contacts` come from
+  // contacts.h for that clip. Throws std::invalid_argument on a skeleton mismatch, a frame count
+  // mismatch, or a non-finite value in the clip (naming the frame and joint).
+  TransferResult run(const Clip& source, const Feet& source_feet, const FootContacts& contacts) const;
+
+ private:
+  struct JointRule {
+    enum class Rotation { rest, driven, follower };
+    enum class Placement { offset, root, effector, attached };
+    Rotation rotation = Rotation::rest;
+    Placement placement = Placement::offset;
+    int parent = -1;
+    Eigen::Quaterniond rest_local = Eigen::Quaterniond::Identity();
+    Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+    int reference = -1;  // driven: S(a)
+    Eigen::Quaterniond reference_to_joint = Eigen::Quaterniond::Identity();  // Q_S^al(S(a))^-1 W^rest
+    int chord_from = -1, chord_to = -1;  // driven chain bones: source joints of the segment
+    Eigen::Vector3d chord_rest = Eigen::Vector3d::Zero();  // Q_S^al(S(a))^-1 v
+    int branch_first = 0, branch_count = 0;  // driven branch joints: their chords in branch_chords_
+    int anchor = -1;  // follower, attached: A
+    Eigen::Quaterniond anchor_to_joint = Eigen::Quaterniond::Identity();  // W^rest(A)^-1 W^rest
+    Eigen::Vector3d anchor_offset = Eigen::Vector3d::Zero();  // W^rest(A)^-1 (P^rest - P^rest(A))
+    int source_joint = -1;  // effector: S(c)
+    Eigen::Vector3d rest_discrepancy = Eigen::Vector3d::Zero();  // effector: d
+    Eigen::Vector3d root_to_pelvis = Eigen::Vector3d::Zero();    // root: W^rest(root)^-1 (P^rest(pelvis) - P^rest(root))
+  };
+
+  struct BranchChord {
+    int from, to;                       // source joints
+    Eigen::Vector3d aligned_direction;  // u^al, world
+  };
+
+  const RetargetRig& rig_;
+  Feet target_feet_;
+  std::vector<JointRule> rules_;
+  std::vector<BranchChord> branch_chords_;
+  std::vector<Eigen::Quaterniond> rest_rotation_;  // W^rest of every target joint
+  std::vector<int> order_;              // evaluation order: parents and anchors first
+  std::vector<int> translated_joints_;  // output clip's animated translations, ascending
+  int root_track_ = 0;                  // index of the root in translated_joints_
+  std::vector<int> source_needed_;      // source joints to pose each frame, parents first
+  Eigen::Vector3d target_rest_pelvis_;
+};
+
+}  // namespace odyssey::retarget
