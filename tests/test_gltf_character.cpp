@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "gltf_reference.h"
 #include "mocap_io/gltf_character.h"
 #include "mocap_io/input_error.h"
 
@@ -49,82 +50,9 @@ std::string write_scratch(const std::string& name, const std::string& bytes) {
 
 // --- The independent evaluation, the way a glTF viewer does it. ---
 
-bool no_images(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
-  return true;
-}
-
-tinygltf::Model parse(const std::string& path) {
-  tinygltf::TinyGLTF parser;
-  parser.SetImageLoader(no_images, nullptr);
-  tinygltf::Model model;
-  std::string error, warning;
-  const bool binary = path.size() > 4 && path.substr(path.size() - 4) == ".glb";
-  const bool ok = binary ? parser.LoadBinaryFromFile(&model, &error, &warning, path)
-                         : parser.LoadASCIIFromFile(&model, &error, &warning, path);
-  EXPECT_TRUE(ok) << path << ": " << error;
-  return model;
-}
-
-// Dense accessor elements as doubles (normalised integers divided by their maximum); no sparse
-// storage, which none of the sample files use.
-std::vector<std::vector<double>> elements(const tinygltf::Model& model, int index) {
-  const tinygltf::Accessor& accessor = model.accessors.at(index);
-  const tinygltf::BufferView& view = model.bufferViews.at(accessor.bufferView);
-  const unsigned char* data = model.buffers.at(view.buffer).data.data() + view.byteOffset + accessor.byteOffset;
-  const int components = tinygltf::GetNumComponentsInType(accessor.type);
-  const int size = tinygltf::GetComponentSizeInBytes(accessor.componentType);
-  const std::size_t stride = view.byteStride ? view.byteStride : std::size_t(components * size);
-  std::vector<std::vector<double>> out(accessor.count, std::vector<double>(components));
-  for (std::size_t e = 0; e < accessor.count; ++e) {
-    for (int c = 0; c < components; ++c) {
-      const unsigned char* at = data + e * stride + c * size;
-      double value = 0;
-      if (accessor.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT) {
-        float f;
-        std::memcpy(&f, at, 4);
-        value = f;
-      } else if (accessor.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) {
-        value = at[0] / (accessor.normalized ? 255.0 : 1.0);
-      } else if (accessor.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) {
-        std::uint16_t u;
-        std::memcpy(&u, at, 2);
-        value = u / (accessor.normalized ? 65535.0 : 1.0);
-      } else {
-        std::uint32_t u;
-        std::memcpy(&u, at, 4);
-        value = u;
-      }
-      out[e][c] = value;
-    }
-  }
-  return out;
-}
-
-// Quaternion (x, y, z, w) to matrix, written out.
-Matrix4d local_matrix(const tinygltf::Node& node) {
-  Matrix4d m = Matrix4d::Identity();
-  if (node.matrix.size() == 16) {
-    for (int i = 0; i < 16; ++i) m(i % 4, i / 4) = node.matrix[i];  // column-major
-    return m;
-  }
-  double x = 0, y = 0, z = 0, w = 1;
-  if (node.rotation.size() == 4) {
-    const double n = std::sqrt(node.rotation[0] * node.rotation[0] + node.rotation[1] * node.rotation[1] +
-                               node.rotation[2] * node.rotation[2] + node.rotation[3] * node.rotation[3]);
-    x = node.rotation[0] / n, y = node.rotation[1] / n, z = node.rotation[2] / n, w = node.rotation[3] / n;
-  }
-  Matrix4d r = Matrix4d::Identity();
-  r(0, 0) = 1 - 2 * (y * y + z * z), r(0, 1) = 2 * (x * y - z * w), r(0, 2) = 2 * (x * z + y * w);
-  r(1, 0) = 2 * (x * y + z * w), r(1, 1) = 1 - 2 * (x * x + z * z), r(1, 2) = 2 * (y * z - x * w);
-  r(2, 0) = 2 * (x * z - y * w), r(2, 1) = 2 * (y * z + x * w), r(2, 2) = 1 - 2 * (x * x + y * y);
-  Matrix4d s = Matrix4d::Identity(), t = Matrix4d::Identity();
-  if (node.scale.size() == 3) s(0, 0) = node.scale[0], s(1, 1) = node.scale[1], s(2, 2) = node.scale[2];
-  if (node.translation.size() == 3) t(0, 3) = node.translation[0], t(1, 3) = node.translation[1], t(2, 3) = node.translation[2];
-  return t * r * s;
-}
-
-// Y up to Z up: (x, y, z) -> (x, -z, y).
-Vector3d z_up(const Vector3d& p) { return Vector3d(p.x(), -p.z(), p.y()); }
+using gltf_reference::elements;
+using gltf_reference::parse;
+using gltf_reference::z_up;
 
 struct Reference {
   std::vector<Matrix4d> world;                // per node
@@ -138,7 +66,7 @@ Reference evaluate(const std::string& path) {
   ref.world.assign(model.nodes.size(), Matrix4d::Identity());
   std::vector<bool> in_scene(model.nodes.size(), false);
   const std::function<void(int, const Matrix4d&, bool)> walk = [&](int node, const Matrix4d& parent, bool scene) {
-    ref.world[node] = parent * local_matrix(model.nodes[node]);
+    ref.world[node] = parent * gltf_reference::static_local(model.nodes[node]);
     in_scene[node] = in_scene[node] || scene;
     for (int child : model.nodes[node].children) walk(child, ref.world[node], scene);
   };
