@@ -1,9 +1,13 @@
 // odyssey demo: the main job on built-in defaults. Generates the synthetic SMPL-X body and a
-// synthetic AMASS-style walk, poses the body over the walk (joints and full mesh per frame), and
-// converts the bundled CMU walk BVH to world joint trajectories, timing each step.
+// synthetic AMASS-style walk, poses the body over the walk (joints and full mesh per frame),
+// converts the bundled CMU walk BVH to world joint trajectories, and retargets that walk onto the
+// bundled character as an animated GLB with its report, timing each step. The retarget step runs
+// `odyssey retarget` itself, with the command line printed, so the demo shows what a user types.
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "cli/args.h"
 #include "cli/commands.h"
@@ -32,11 +36,14 @@ int run_demo(const std::vector<std::string>& arguments) {
   Args args("demo",
             "Run the main job on the bundled defaults: write the synthetic SMPL-X body model, a synthetic\n"
             "AMASS-style SMPL-X walk, the body posed over the walk (joints and vertices per frame), and the\n"
-            "bundled CMU walk BVH as world joint trajectories. Everything goes to --out.");
+            "bundled CMU walk BVH as world joint trajectories, then retarget the CMU walk onto the bundled\n"
+            "character (odyssey retarget) as an animated GLB with its JSON report. Everything goes to --out.");
   args.option("out", "DIR", "output folder", "demo-out")
       .option("data", "DIR", "the bundled data folder", ODYSSEY_DATA_DIR)
       .option("seconds", "S", "length of the synthetic walk", "4")
-      .option("fps", "FPS", "output frame rate", "30");
+      .option("fps", "FPS", "output frame rate", "30")
+      .option("character", "NAME", "the bundled character to retarget onto (DATA/characters/NAME.glb)", "RiggedFigure")
+      .option("quality", "Q", "retargeting quality: fast, balanced or accurate", "balanced");
   if (!args.parse(arguments)) return 0;
   const std::filesystem::path out = args.get("out");
   const std::filesystem::path data = args.get("data");
@@ -73,6 +80,20 @@ int run_demo(const std::vector<std::string>& arguments) {
   io::export_clip_joints(clip, bvh_out);
   std::printf("%-44s %7.2f s  (%d frames, %d joints)\n", ("CMU walk joints   -> " + bvh_out).c_str(), step.seconds(),
               clip.frame_count(), clip.joint_count());
+
+  step = Stopwatch();
+  const std::string character = args.get("character");
+  const std::string retarget_stem = (out / ("cmu_walk_on_" + character)).string();
+  const std::vector<std::string> retarget_arguments = {
+      "--motion", bvh_path, "--bvh-units", "cmu", "--character", (data / "characters" / (character + ".glb")).string(),
+      "--out", retarget_stem + ".glb", "--report", retarget_stem + ".report.json", "--quality", args.get("quality"),
+      "--fps", args.get("fps")};
+  std::string command_line = "odyssey retarget";
+  for (const std::string& argument : retarget_arguments) command_line += " " + argument;
+  std::printf("\n%s\n", command_line.c_str());
+  std::fflush(stdout);
+  run_retarget(retarget_arguments);
+  std::printf("%-44s %7.2f s\n", ("retargeted walk   -> " + retarget_stem + ".glb").c_str(), step.seconds());
   return 0;
 }
 

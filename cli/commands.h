@@ -12,5 +12,6 @@ int run_inspect(const std::vector<std::string>& arguments);
 int run_pose(const std::vector<std::string>& arguments);
 int run_make_body(const std::vector<std::string>& arguments);
 int run_demo(const std::vector<std::string>& arguments);
+int run_retarget(const std::vector<std::string>& arguments);
 
 }  // namespace odyssey::cli

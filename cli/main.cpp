@@ -22,6 +22,8 @@ constexpr Command kCommands[] = {
     {"pose", "evaluate a body model on a motion (or a BVH skeleton) and write per-frame joints/vertices",
      odyssey::cli::run_pose},
     {"make-body", "write a synthetic SMPL-X body model in the smplx npz layout", odyssey::cli::run_make_body},
+    {"retarget", "retarget a BVH or AMASS motion onto a rigged glTF character, write an animated GLB and a report",
+     odyssey::cli::run_retarget},
 };
 
 void print_usage(std::FILE* stream) {

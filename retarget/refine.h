@@ -1,6 +1,104 @@
-// Refinement of a transferred clip with Ceres (qualities `balanced` and `accurate`). DRAFT
-// INTERFACE by the lead: the refinement engineer owns this file and may extend it, keeping
-// Quality, parse_quality, quality_name, default_refine_options and refine() as declared.
+// Refinement of a transferred clip with Ceres: qualities `balanced` (frame by frame) and
+// `accurate` (temporal windows). It starts from a RetargetResult of quality `fast` (retarget.h),
+// the reference below, and replaces result.transfer.clip and result.report.result_metrics.
+//
+// Unknowns. Per frame: the local rotation q_j of every target joint that starts a chain bone of
+// the body (rig.h: a non-degenerate segment whose start starts no other; hips, knees, ankles,
+// spine joints, neck, collars, shoulders, elbows, wrists) below the pelvis, and a displacement dp
+// of the pelvis in world (the root's translation moves by dp). Branch joints (the pelvis's
+// rotation, a chest with neck and shoulders) keep the transferred rotation; so do fingers, the
+// head's children and every unmapped joint (they ride on their parents). Joints the transfer
+// places rigidly with another (followers, a thumb hung from the forearm: transfer.h) move with it
+// again. IK-style effectors (a detached segment's end outside the pelvis's subtree, as
+// RobotExpressive's feet under the root bone) are not placed where the transfer put them (the
+// scaled source ankle, up to 54 cm from the robot's shin) but at the end of their segment, the
+// rest chord carried by the start joint (the knee): positions drive the leg that carries them.
+//
+// Residuals of frame t (p_T, W_T: target world positions and rotations from forward kinematics
+// of the unknowns; p_S: the levelled source, contacts.h; s the rig's scale; q_ref, p_ref the
+// reference; L = 1.7 m / the target's height (rig.h), so that lengths weigh the same on a 5 cm
+// figure as on a 50 m one: length weights are per metre of a 1.7 m tall character):
+//
+//   bone direction   w_dir ( unit(p_T(c) - p_T(a)) - unit(p_S(S(c)) - p_S(S(a))) )
+//                    every chain bone (a, c) whose direction depends on an unknown; for a
+//                    detached target segment (rig.h) the target direction is W_T(a) times the
+//                    rest chord in a's frame, as metrics.h measures it
+//   end effector     w_ee L ( (p_T(e) - p_T(pelvis)) - s (p_S(e) - p_S(pelvis)) ),  e = head,
+//                    wrists, ankles
+//   foot contact     w_foot L ( p_T(k) - D(t) ),  when the foot plan below places a joint k
+//   floor            w_floor L max(0, g_k - z_T(k)),  every foot joint k, every frame
+//   pose             w_pose 2 vec( q_ref,j^-1 q_j ),  sign taken so the scalar part is >= 0
+//   pelvis           w_pelvis L ( dp - dp_plan(t) )
+//   (accurate only)  w_smooth fps^2 ( c_j(t+1) - 2 c_j(t) + c_j(t-1) ),  c_j = q_ref,j^-1 q_j,
+//                    the leg joints' corrections (quaternion components), and
+//                    w_pelvis_smooth L fps^2 ( dp(t+1) - 2 dp(t) + dp(t-1) ),
+//                    each through a Cauchy loss (below)
+//
+// A unit-vector difference is about the angle in radians: with w_dir = 1, a weight w on a
+// length term says that 1 m (of a 1.7 m character) costs as much as w radians of direction.
+//
+// What the weights trade, measured on the CMU walk (tests/test_refine.cpp). End effectors
+// against the height-scaled source mostly measure how the rigs' proportions differ (19 cm on
+// average for the Mixamo test rig, 76 cm for RobotExpressive, with every bone exact): at w_ee = 1
+// the Mixamo rig's arms turn 1.3 degrees for effectors 0.7 cm closer, so the default keeps the
+// term a tie-breaker. Smoothing the corrections rather than the rotations themselves leaves the
+// performer's motion (and its capture noise) as it was: smoothing local rotations fights the
+// capture, whose root noise the legs compensate, and makes the pelvis shake to keep the feet
+// planted; what the refinement adds (contacts switching, per-frame solves) is what is smoothed.
+//
+// The plan, fixed before solving (refine_model.h: plan_motion):
+// - Stride and height. The height ratio s scales the root's travel, but the target's legs need
+//   not be s times the source's (the Mixamo test rig's are 16% shorter, RiggedFigure's and
+//   RobotExpressive's 20% and 22%): with every leg bone along the source's, a planted foot would
+//   slide by that share of each stride. The stride factor k is fitted so that moving the body by
+//   (k - 1) times the pelvis's horizontal travel best stills the reference's planted feet (least
+//   squares, ridge-regularised, within [0.5, 2]; reported in RefineSummary), and the height h is
+//   the median over planted frames of how far the support joint is from the floor; then
+//   dp_plan(t) = ((k - 1) (P_ref(t) - P_ref(0)) horizontally, h). The character covers k times
+//   the ground the transfer gave it, which is what its legs can walk (`fit_stride` off: k = 1).
+// - Feet. Feet are the joints contacts.h names (ankle, ball of the foot) with the target's ground
+//   heights g_k; the floor is z = 0. During a source contact (a maximal run of planted frames)
+//   the foot's support joint k(t), its lowest joint in the reference (lowest_foot_joint, as the
+//   skate metric picks it), is held at D(t) = (anchor_x, anchor_y, g_k): on the floor, still. The
+//   anchor is the mean horizontal position of the first support joint over the frames it
+//   supports, in the reference moved by dp_plan (the mean rather than the position at contact
+//   start halves the largest correction); when the support passes to the other joint (heel
+//   strike -> flat -> toe-off) the anchor passes with it, shifted by the reference's ankle -> ball
+//   vector at that frame, so the foot rolls over the joint that holds without a jump. Around a
+//   contact the correction fades in and out over `contact_blend_seconds` (smoothstep u from 1 to
+//   0): the boundary's support joint is wanted at p_ref + u (dp_plan + o) + (1 - u) dp, passing
+//   from its anchor to moving with the body; contacts closer than two fades hand the correction
+//   from one to the next across the gap. A foot of one joint (no ball of the foot) cannot roll
+//   over its ball: it is held flat while planted (its rest rotation turned about z as the
+//   reference turns), or with the performer's toe-off pitch its toe would dip into the floor.
+//
+// Solvers.
+// - balanced: frame by frame, one small problem per limb with ceres::TinySolver and automatic
+//   derivatives (ceres::TinySolverAutoDiffFunction, fixed parameter counts, buffers reused: no
+//   allocation per solve); rotations as q = q0 q(x), q(x) the rotation by the vector x, a chart of
+//   the unit quaternions at the starting rotation q0 as EigenQuaternionManifold's Plus is. The lower body (dp and both legs,
+//   up to 21 unknowns) first, then the spine (its chain joints and neck), then each arm with the
+//   solved spine held. The lower body's residuals do not read the upper body's unknowns nor the
+//   upper body's dp (directions and offsets from the pelvis), so that split is exact; the spine
+//   is solved before the arms without their end-effector terms. Each frame warm-starts from the
+//   previous one (its corrections q_ref^-1 q and dp - dp_plan carried onto this frame); the first
+//   frame of each window of `window_frames` starts from the reference.
+// - accurate: the balanced solution, then the lower body over windows of `window_frames` kept
+//   frames with `window_margin` frames of context on each side: one ceres::Problem per window
+//   over every frame's dp and leg rotations (EigenQuaternionManifold), with the limb residuals
+//   and the smoothness terms, solved with SPARSE_NORMAL_CHOLESKY (the second differences make
+//   the system banded in time; a dense factorisation of a window's ~1,000 unknowns would cost
+//   cubically) for at most `window_iterations` iterations. The upper body keeps its balanced
+//   solution: its residuals read neither dp nor the legs and its corrections (end effectors
+//   against directions, no contacts) change smoothly; leaving it out makes the windows ~6 times
+//   cheaper. Neighbouring windows overlap by twice the margin around their common boundary and
+//   are cross-faded there (smoothstep), so no seam is left where one window's solution meets the
+//   next's. The smoothness residuals pass through Cauchy losses rho(s) = b^2 log(1 + s / b^2)
+//   with b at `smoothness_limit` and `pelvis_smoothness_limit`: quadratic for accelerations
+//   below, nearly flat far above, so a genuine jump (the T-pose reference frame that opens CMU
+//   files) is left alone instead of being smeared over its neighbours.
+// Windows are solved in parallel (options.threads), each from data no other window writes, and
+// cut at fixed frames whatever the thread count: threads change the speed, not the result.
 #pragma once
 
 #include <optional>
@@ -14,15 +112,56 @@ enum class Quality { fast, balanced, accurate };
 std::optional<Quality> parse_quality(std::string_view text);
 const char* quality_name(Quality quality);
 
-struct RefineOptions {
-  // Term weights and solver settings; defaults per quality from default_refine_options().
-  int threads = 1;  // independent windows solved in parallel
+// The weights of the residuals above (lengths: per metre of a 1.7 m tall character).
+struct RefineWeights {
+  double bone_direction = 1.0;     // w_dir, per unit-vector difference (about radians)
+  double end_effector = 0.05;      // w_ee, per metre: a tie-breaker (above)
+  double foot_contact = 30.0;      // w_foot, per metre: 1 mm off costs as 1.7 degrees
+  double floor = 30.0;             // w_floor, per metre below the floor
+  double pose = 0.05;              // w_pose, per radian: settles the twist directions leave free
+  double pelvis = 1.0;             // w_pelvis, per metre from dp_plan
+  double smoothness = 0.0;         // w_smooth, per rad/s^2 (accurate)
+  double pelvis_smoothness = 0.0;  // w_pelvis_smooth, per m/s^2 (accurate)
 };
 
+struct RefineOptions {
+  Quality quality = Quality::balanced;
+  RefineWeights weights;
+  double contact_blend_seconds = 0.1;     // fade of a foot correction into and out of a contact
+  int window_frames = 64;                 // frames a window keeps (balanced: one warm-start run)
+  int window_margin = 0;                  // accurate: context frames each side, <= window_frames / 2
+  int max_iterations = 50;                // per limb and frame (most converge in 2 to 4)
+  int window_iterations = 10;             // accurate: per window, from the balanced solution
+  double smoothness_limit = 300;          // rad/s^2, the Cauchy scale b of the rotation smoothness
+  double pelvis_smoothness_limit = 20;    // m/s^2 (1.7 m character), that of the pelvis smoothness
+  bool warm_start = true;                 // balanced: start each frame from the previous one
+  bool fit_stride = true;                 // fit the stride factor k (above); false: k = 1
+  int threads = 1;                        // independent windows solved in parallel
+};
+
+// Defaults per quality (fast: nothing to refine):
+//   balanced: the weights above, windows of 64 frames;
+//   accurate: foot contact 100 per m (the smoothness would otherwise let planted feet drift by
+//   millimetres), smoothness 0.0005 per rad/s^2 and pelvis smoothness 0.01 per m/s^2, windows of
+//   32 frames with 8 frames of context on each side.
 RefineOptions default_refine_options(Quality quality);
 
+struct RefineSummary {
+  double seconds = 0;        // wall clock, all of refine() (plan, solvers, metrics)
+  double solve_seconds = 0;  // the solvers alone (balanced pass and accurate windows)
+  int frames = 0;
+  int windows = 0;           // windows of the last pass (balanced or accurate)
+  long iterations = 0;       // solver iterations, summed over problems
+  int unknown_joints = 0;
+  double stride = 1;         // the stride factor k
+  double height = 0;         // the plan's height h, m
+};
+
 // Refines result.transfer.clip in place and recomputes result.report.result_metrics (and sets
-// report.quality and the refine timing). `source` is the clip the result was transferred from.
-void refine(RetargetResult& result, const Clip& source, const RefineOptions& options);
+// report.quality; the CLI times the call). `source` is the clip the result was transferred from.
+// Quality fast leaves the result as it is. Throws std::invalid_argument when the source is not the
+// result's (skeleton, frame count), or an option is out of range (threads, window sizes,
+// iterations, negative or non-finite weights, limits).
+RefineSummary refine(RetargetResult& result, const Clip& source, const RefineOptions& options);
 
 }  // namespace odyssey::retarget

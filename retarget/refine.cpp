@@ -1,0 +1,606 @@
+// GCC 12 reports -Wmaybe-uninitialized inside its own AVX-512 intrinsics when Eigen's matrix
+// products (TinySolver's J^T J) are inlined here (GCC bug 105593, fixed in GCC 13); the
+// diagnostic is tied to where the intrinsics are first included, so it is silenced for those
+// headers only, as in skeleton/body_model.cpp.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include <Eigen/Core>
+#pragma GCC diagnostic pop
+
+#include "retarget/refine.h"
+
+#include <ceres/ceres.h>
+#include <ceres/tiny_solver.h>
+#include <ceres/tiny_solver_autodiff_function.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "retarget/refine_model.h"
+
+namespace odyssey::retarget {
+
+namespace refinement {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+// The unit quaternion of the rotation vector x, (cos(|x|/2), sin(|x|/2) x / |x|). Below 1e-10 rad
+// the expansion (1 - |x|^2/8, x/2) is exact to double precision and has the right derivatives at
+// x = 0, where the closed form divides 0 by 0.
+template <class T>
+Eigen::Quaternion<T> rotation_from_vector(const T* x) {
+  using std::cos;
+  using std::sin;
+  using std::sqrt;
+  const T angle_squared = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+  if (angle_squared > T(1e-20)) {
+    const T angle = sqrt(angle_squared);
+    const T k = sin(angle / 2.0) / angle;
+    return Eigen::Quaternion<T>(cos(angle / 2.0), k * x[0], k * x[1], k * x[2]);
+  }
+  return Eigen::Quaternion<T>(T(1.0) - angle_squared / 8.0, x[0] / 2.0, x[1] / 2.0, x[2] / 2.0);
+}
+
+// The LimbWork of the scalar type a cost is evaluated with.
+template <class Jet>
+struct LimbWorkPair {
+  LimbWork<double> plain;
+  LimbWork<Jet> jet;
+  explicit LimbWorkPair(const Limb& limb) : plain(limb), jet(limb) {}
+  template <class T>
+  LimbWork<T>& get() {
+    if constexpr (std::is_same_v<T, double>) {
+      return plain;
+    } else {
+      return jet;
+    }
+  }
+};
+
+// Balanced: one limb of one frame. Unknowns x: a rotation vector per owned slot, the slot's
+// rotation being q0 q(x_s) with q0 its starting value (a chart of the unit quaternions at q0, as
+// EigenQuaternionManifold's Plus is, turned in the joint's frame rather than its parent's), then
+// dp's change from its starting value when the limb moves the pelvis. Residuals: limb_residuals.
+class LimbSolver {
+ public:
+  virtual ~LimbSolver() = default;
+  // Solves the limb in `frame` (filled from `pose`) and writes its unknowns into `pose`; returns
+  // the solver's iterations.
+  virtual int solve(const LimbFrame& frame, FramePose& pose) = 0;
+};
+
+template <int kParameters>
+class TinyLimbSolver final : public LimbSolver {
+ public:
+  TinyLimbSolver(const Limb& limb, const RefineWeights& weights, int max_iterations)
+      : cost_(limb, weights), function_(cost_) {
+    solver_.options.max_num_iterations = max_iterations;
+    solver_.options.gradient_tolerance = 1e-12;
+    solver_.options.parameter_tolerance = 1e-7;
+    solver_.options.function_tolerance = 1e-14;
+  }
+  TinyLimbSolver(const TinyLimbSolver&) = delete;
+  TinyLimbSolver& operator=(const TinyLimbSolver&) = delete;
+
+  int solve(const LimbFrame& frame, FramePose& pose) override {
+    cost_.frame = &frame;
+    typename Solver::Parameters x = Solver::Parameters::Zero();
+    solver_.Solve(function_, &x);
+    const Limb& limb = cost_.limb;
+    for (int s = 0; s < limb.owned; ++s) {
+      pose.rotation[limb.slots[s]] = (frame.slot_value[s] * rotation_from_vector(x.data() + 3 * s)).normalized();
+    }
+    if (limb.moves_pelvis) pose.pelvis_offset = frame.pelvis_offset + x.template tail<3>();
+    return solver_.summary.iterations;
+  }
+
+ private:
+  using Jet = ceres::Jet<double, kParameters>;
+  struct Cost {
+    const Limb& limb;
+    const RefineWeights& weights;
+    const LimbFrame* frame = nullptr;
+    mutable LimbWorkPair<Jet> work;
+
+    Cost(const Limb& limb, const RefineWeights& weights) : limb(limb), weights(weights), work(limb) {}
+    int NumResiduals() const { return limb.residual_count(); }
+
+    template <class T>
+    bool operator()(const T* x, T* residual) const {
+      LimbWork<T>& w = work.template get<T>();
+      for (int s = 0; s < limb.owned; ++s) w.slot[s] = frame->slot_value[s].template cast<T>() * rotation_from_vector(x + 3 * s);
+      for (std::size_t s = limb.owned; s < limb.slots.size(); ++s) w.slot[s] = frame->slot_value[s].template cast<T>();
+      Vector3<T> offset = frame->pelvis_offset.template cast<T>();
+      if (limb.moves_pelvis) offset += Eigen::Map<const Vector3<T>>(x + 3 * limb.owned);
+      limb_residuals(limb, weights, *frame, offset, w, residual);
+      return true;
+    }
+  };
+  using Function = ceres::TinySolverAutoDiffFunction<Cost, Eigen::Dynamic, kParameters>;
+  using Solver = ceres::TinySolver<Function>;
+
+  Cost cost_;
+  Function function_;
+  Solver solver_;
+};
+
+std::unique_ptr<LimbSolver> make_limb_solver(const Limb& limb, const RefineWeights& weights, int max_iterations) {
+  switch (limb.parameter_count()) {
+    case 3: return std::make_unique<TinyLimbSolver<3>>(limb, weights, max_iterations);
+    case 6: return std::make_unique<TinyLimbSolver<6>>(limb, weights, max_iterations);
+    case 9: return std::make_unique<TinyLimbSolver<9>>(limb, weights, max_iterations);
+    case 12: return std::make_unique<TinyLimbSolver<12>>(limb, weights, max_iterations);
+    case 15: return std::make_unique<TinyLimbSolver<15>>(limb, weights, max_iterations);
+    case 18: return std::make_unique<TinyLimbSolver<18>>(limb, weights, max_iterations);
+    case 21: return std::make_unique<TinyLimbSolver<21>>(limb, weights, max_iterations);
+    default:
+      throw std::invalid_argument("the " + limb.name + " has " + std::to_string(limb.parameter_count()) +
+                                  " unknowns; refinement supports 3 to 21 a limb");
+  }
+}
+
+// Accurate: one limb of one frame of a window, over Ceres parameter blocks: dp (3, when the limb
+// moves the pelvis), then one unit quaternion (x, y, z, w) per slot. Derivatives are taken 16 at
+// a time (the lower body's 3 + 6 x 4 parameters in two passes).
+constexpr int kWindowStride = 16;
+
+class WindowLimbCost {
+ public:
+  WindowLimbCost(const Limb& limb, const RefineWeights& weights, const LimbFrame& frame)
+      : limb_(limb), weights_(weights), frame_(frame), work_(limb) {}
+
+  template <class T>
+  bool operator()(T const* const* parameters, T* residual) const {
+    LimbWork<T>& w = work_.template get<T>();
+    int block = 0;
+    Vector3<T> offset = frame_.pelvis_offset.template cast<T>();
+    if (limb_.moves_pelvis) offset = Eigen::Map<const Vector3<T>>(parameters[block++]);
+    for (std::size_t s = 0; s < limb_.slots.size(); ++s) w.slot[s] = Eigen::Map<const Eigen::Quaternion<T>>(parameters[block++]);
+    limb_residuals(limb_, weights_, frame_, offset, w, residual);
+    return true;
+  }
+
+ private:
+  const Limb& limb_;
+  const RefineWeights& weights_;
+  const LimbFrame& frame_;
+  mutable LimbWorkPair<ceres::Jet<double, kWindowStride>> work_;
+};
+
+// w fps^2 (c(t+1) - 2 c(t) + c(t-1)), c(t) = q_ref(t)^-1 q(t) the correction of one joint's local
+// rotation (quaternion components; for the small corrections here about half its angular
+// acceleration in rad/s^2). The reference itself is not smoothed: its noise is the performer's.
+struct CorrectionAcceleration {
+  std::array<Eigen::Quaterniond, 3> reference_inverse;  // q_ref^-1 at t-1, t, t+1
+  double weight;                                        // w_smooth fps^2
+
+  template <class T>
+  bool operator()(const T* before, const T* now, const T* after, T* residual) const {
+    const T* q[3] = {before, now, after};
+    Eigen::Matrix<T, 4, 1> c[3];
+    for (int k = 0; k < 3; ++k) {
+      c[k] = (reference_inverse[k].template cast<T>() * Eigen::Map<const Eigen::Quaternion<T>>(q[k])).coeffs();
+    }
+    for (int i = 0; i < 4; ++i) residual[i] = T(weight) * (c[2][i] - 2.0 * c[1][i] + c[0][i]);
+    return true;
+  }
+  static ceres::CostFunction* Create(const std::array<Eigen::Quaterniond, 3>& reference, double weight) {
+    return new ceres::AutoDiffCostFunction<CorrectionAcceleration, 4, 4, 4, 4>(new CorrectionAcceleration{
+        {reference[0].conjugate(), reference[1].conjugate(), reference[2].conjugate()}, weight});
+  }
+};
+
+// w L fps^2 (dp(t+1) - 2 dp(t) + dp(t-1)): the pelvis correction's acceleration, in m/s^2 of a
+// 1.7 m character (L = RefineModel::length_scale).
+struct PelvisAcceleration {
+  double weight;  // w_pelvis_smooth L fps^2
+
+  template <class T>
+  bool operator()(const T* before, const T* now, const T* after, T* residual) const {
+    for (int i = 0; i < 3; ++i) residual[i] = T(weight) * (after[i] - 2.0 * now[i] + before[i]);
+    return true;
+  }
+  static ceres::CostFunction* Create(double weight) {
+    return new ceres::AutoDiffCostFunction<PelvisAcceleration, 3, 3, 3, 3>(new PelvisAcceleration{weight});
+  }
+};
+
+// Runs work(window, state) for every window on up to `threads` threads, each with its own state
+// from make_state(). Windows are taken in any order; the first exception is rethrown once all
+// threads have stopped.
+template <class MakeState, class Work>
+void for_each_window(int windows, int threads, MakeState make_state, Work work) {
+  std::atomic<int> next{0};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  const auto loop = [&] {
+    try {
+      auto state = make_state();
+      for (int window = next++; window < windows; window = next++) work(window, state);
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(failure_mutex);
+      if (!failure) failure = std::current_exception();
+      next = windows;
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < std::min(threads, windows); ++t) pool.emplace_back(loop);
+  loop();
+  for (std::thread& thread : pool) thread.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
+// Everything both passes read, and the solution of the balanced pass: per frame, the unknown
+// joints' local rotations and dp.
+struct Refinement {
+  const RefineModel& model;
+  const Clip& reference;
+  const Clip& source;
+  const Feet& source_feet;
+  const MotionPlan& plan;
+  const RefineOptions& options;
+  std::vector<Eigen::Quaterniond> solved_rotation;  // [frame * unknowns + u]
+  std::vector<Eigen::Vector3d> solved_offset;       // [frame]
+
+  int frames() const { return reference.frame_count(); }
+  int unknowns() const { return static_cast<int>(model.unknown_joints.size()); }
+};
+
+// Balanced: windows of consecutive frames, each frame warm-started from the one before.
+long balanced_pass(Refinement& refinement, Clip& out, int& window_count) {
+  const RefineModel& model = refinement.model;
+  const RefineOptions& options = refinement.options;
+  const int frames = refinement.frames();
+  const int unknowns = refinement.unknowns();
+  const int size = options.window_frames;
+  window_count = (frames + size - 1) / size;
+  std::vector<long> iterations(window_count, 0);
+  struct State {
+    FrameBuilder builder;
+    std::vector<std::unique_ptr<LimbSolver>> solvers;
+    std::vector<LimbFrame> limb_frames;
+    FramePose pose;
+    std::vector<Eigen::Quaterniond> previous_reference;
+  };
+  const auto make_state = [&] {
+    State state{FrameBuilder(model, refinement.reference, refinement.source, refinement.source_feet), {},
+                std::vector<LimbFrame>(model.limbs.size()), {}, std::vector<Eigen::Quaterniond>(unknowns)};
+    for (const Limb& limb : model.limbs) state.solvers.push_back(make_limb_solver(limb, options.weights, options.max_iterations));
+    return state;
+  };
+  const auto work = [&](int window, State& state) {
+    const int first = window * size, end = std::min(frames, first + size);
+    long window_iterations = 0;  // counted here, stored once: neighbouring counters share a cache line
+    for (int f = first; f < end; ++f) {
+      state.builder.load(f);
+      const std::vector<Eigen::Vector3d>& pelvis_plan = refinement.plan.pelvis_offset;
+      if (f == first || !options.warm_start) {
+        state.builder.reference_pose(state.pose);
+        state.pose.pelvis_offset = pelvis_plan[f];
+      } else {
+        // The previous frame's corrections, q_ref^-1 q and dp - dp_plan, carried onto this frame.
+        for (int u = 0; u < unknowns; ++u) {
+          const Eigen::Quaterniond correction = state.previous_reference[u].conjugate() * state.pose.rotation[u];
+          state.pose.rotation[u] = (state.builder.reference_local(model.unknown_joints[u]) * correction).normalized();
+        }
+        state.pose.pelvis_offset += pelvis_plan[f] - pelvis_plan[f - 1];
+      }
+      for (std::size_t l = 0; l < model.limbs.size(); ++l) {
+        state.builder.fill(model.limbs[l], state.pose, refinement.plan, state.limb_frames[l]);
+        window_iterations += state.solvers[l]->solve(state.limb_frames[l], state.pose);
+      }
+      state.builder.write(state.pose, refinement.plan, out);
+      for (int u = 0; u < unknowns; ++u) {
+        state.previous_reference[u] = state.builder.reference_local(model.unknown_joints[u]);
+        refinement.solved_rotation[std::size_t(f) * unknowns + u] = state.pose.rotation[u];
+      }
+      refinement.solved_offset[f] = state.pose.pelvis_offset;
+    }
+    iterations[window] = window_iterations;
+  };
+  for_each_window(window_count, options.threads, make_state, work);
+  long total = 0;
+  for (long count : iterations) total += count;
+  return total;
+}
+
+// Accurate: the lower body (the limb that moves the pelvis) over windows of `window_frames`
+// kept frames with `window_margin` frames of context on each side, every frame's dp and leg
+// rotations in one Ceres problem with the smoothness terms, started from the balanced solution.
+// Neighbouring windows overlap by twice the margin around their common boundary, where their
+// solutions are cross-faded (smoothstep), so no seam is left where one window's solution meets
+// the next's. The upper body keeps its balanced solution: its residuals read neither dp nor the
+// legs, and its corrections (end effectors against directions, no contacts) change smoothly.
+long accurate_pass(const Refinement& refinement, Clip& out, int& window_count) {
+  const RefineModel& model = refinement.model;
+  const RefineOptions& options = refinement.options;
+  const RefineWeights& weights = options.weights;
+  const int frames = refinement.frames();
+  const int unknowns = refinement.unknowns();
+  const int size = options.window_frames;
+  const int margin = options.window_margin;
+  const double fps_squared = refinement.reference.fps * refinement.reference.fps;
+  window_count = (frames + size - 1) / size;
+  const auto lower = std::find_if(model.limbs.begin(), model.limbs.end(), [](const Limb& limb) { return limb.moves_pelvis; });
+  if (lower == model.limbs.end()) return 0;
+  const Limb& limb = *lower;
+  const int slots = static_cast<int>(limb.slots.size());
+
+  // A window's solution over the frames it solves, [first, end).
+  struct WindowSolution {
+    int first = 0, end = 0;
+    std::vector<Eigen::Quaterniond> rotation;  // [frame - first][slot]
+    std::vector<Eigen::Vector3d> offset;       // [frame - first]
+  };
+  std::vector<WindowSolution> solutions(window_count);
+  std::vector<long> iterations(window_count, 0);
+  const auto kept_range = [&](int window) { return std::pair{window * size, std::min(frames, (window + 1) * size)}; };
+
+  struct State {
+    FrameBuilder builder;
+    std::vector<LimbFrame> limb_frames;  // [frame in window]
+    FramePose pose;
+    ceres::EigenQuaternionManifold manifold;
+    ceres::CauchyLoss rotation_jump, pelvis_jump;
+  };
+  // Cauchy losses rho(s) = b^2 log(1 + s / b^2) on the accelerations: quadratic below b, where
+  // they smooth, and nearly flat far above it, so a genuine jump (the T-pose reference frame that
+  // opens CMU files) is left alone instead of being smeared over its neighbours.
+  // The residuals at the limits: w alpha / 2 (Delta^2 c is about alpha / 2 / fps^2), and w a for
+  // the pelvis (its residuals are in 1.7 m units, as the limit).
+  const double rotation_scale = weights.smoothness * options.smoothness_limit / 2;
+  const double pelvis_scale = weights.pelvis_smoothness * options.pelvis_smoothness_limit;
+  const auto make_state = [&] {
+    return State{FrameBuilder(model, refinement.reference, refinement.source, refinement.source_feet), {}, {}, {},
+                 ceres::CauchyLoss(rotation_scale), ceres::CauchyLoss(pelvis_scale)};
+  };
+  const auto balanced_pose = [&](int f, FramePose& pose) {
+    pose.rotation.assign(refinement.solved_rotation.begin() + std::ptrdiff_t(f) * unknowns,
+                         refinement.solved_rotation.begin() + std::ptrdiff_t(f + 1) * unknowns);
+    pose.pelvis_offset = refinement.solved_offset[f];
+  };
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  solver_options.max_num_iterations = options.window_iterations;
+  solver_options.function_tolerance = 1e-8;
+  solver_options.gradient_tolerance = 1e-12;
+  solver_options.parameter_tolerance = 1e-8;
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+
+  const auto solve = [&](int window, State& state) {
+    const auto [kept_first, kept_end] = kept_range(window);
+    WindowSolution& solution = solutions[window];
+    solution.first = std::max(0, kept_first - margin);
+    solution.end = std::min(frames, kept_end + margin);
+    const int count = solution.end - solution.first;
+    state.limb_frames.resize(count);
+    solution.rotation.resize(std::size_t(count) * slots);
+    solution.offset.resize(count);
+    for (int i = 0; i < count; ++i) {
+      const int f = solution.first + i;
+      state.builder.load(f);
+      balanced_pose(f, state.pose);
+      for (int s = 0; s < slots; ++s) solution.rotation[std::size_t(i) * slots + s] = state.pose.rotation[limb.slots[s]];
+      solution.offset[i] = state.pose.pelvis_offset;
+      state.builder.fill(limb, state.pose, refinement.plan, state.limb_frames[i]);
+    }
+
+    ceres::Problem::Options problem_options;
+    problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(problem_options);
+    const auto rotation_block = [&](int i, int s) { return solution.rotation[std::size_t(i) * slots + s].coeffs().data(); };
+    std::vector<double*> blocks;
+    for (int i = 0; i < count; ++i) {
+      auto* cost = new ceres::DynamicAutoDiffCostFunction<WindowLimbCost, kWindowStride>(new WindowLimbCost(limb, weights, state.limb_frames[i]));
+      blocks.assign({solution.offset[i].data()});
+      cost->AddParameterBlock(3);
+      for (int s = 0; s < slots; ++s) {
+        cost->AddParameterBlock(4);
+        blocks.push_back(rotation_block(i, s));
+      }
+      cost->SetNumResiduals(limb.residual_count());
+      problem.AddResidualBlock(cost, nullptr, blocks);
+      for (int s = 0; s < slots; ++s) {
+        problem.SetManifold(rotation_block(i, s), &state.manifold);
+        if (s >= limb.owned) problem.SetParameterBlockConstant(rotation_block(i, s));
+      }
+    }
+    for (int i = 1; i + 1 < count; ++i) {
+      const int f = solution.first + i;
+      if (weights.smoothness > 0) {
+        for (int s = 0; s < limb.owned; ++s) {
+          const int joint = model.unknown_joints[limb.slots[s]];
+          const Clip& reference = refinement.reference;
+          const std::array<Eigen::Quaterniond, 3> around = {reference.rotation(f - 1, joint), reference.rotation(f, joint),
+                                                            reference.rotation(f + 1, joint)};
+          problem.AddResidualBlock(CorrectionAcceleration::Create(around, weights.smoothness * fps_squared), &state.rotation_jump,
+                                   rotation_block(i - 1, s), rotation_block(i, s), rotation_block(i + 1, s));
+        }
+      }
+      if (weights.pelvis_smoothness > 0) {
+        problem.AddResidualBlock(PelvisAcceleration::Create(model.length_scale * weights.pelvis_smoothness * fps_squared), &state.pelvis_jump,
+                                 solution.offset[i - 1].data(), solution.offset[i].data(), solution.offset[i + 1].data());
+      }
+    }
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver_options, &problem, &summary);
+    iterations[window] = static_cast<long>(summary.iterations.size());
+  };
+  for_each_window(window_count, options.threads, make_state, solve);
+
+  // Kept frames, cross-faded with the neighbouring window within `margin` frames of a boundary.
+  const auto write = [&](int window, State& state) {
+    const auto [kept_first, kept_end] = kept_range(window);
+    for (int f = kept_first; f < kept_end; ++f) {
+      int other = -1;
+      double weight = 0;  // of the other window
+      if (margin > 0 && f < kept_first + margin && window > 0) {
+        other = window - 1;
+        weight = 1 - smoothstep((f - (kept_first - margin) + 0.5) / (2.0 * margin));
+      } else if (margin > 0 && f >= kept_end - margin && window + 1 < window_count) {
+        other = window + 1;
+        weight = smoothstep((f - (kept_end - margin) + 0.5) / (2.0 * margin));
+      }
+      const WindowSolution& own = solutions[window];
+      balanced_pose(f, state.pose);
+      for (int s = 0; s < slots; ++s) {
+        Eigen::Quaterniond q = own.rotation[std::size_t(f - own.first) * slots + s];
+        if (other >= 0) {
+          const WindowSolution& theirs = solutions[other];
+          Eigen::Quaterniond r = theirs.rotation[std::size_t(f - theirs.first) * slots + s];
+          if (r.dot(q) < 0) r.coeffs() = -r.coeffs();
+          q.coeffs() = (1 - weight) * q.coeffs() + weight * r.coeffs();
+        }
+        state.pose.rotation[limb.slots[s]] = q.normalized();
+      }
+      state.pose.pelvis_offset = own.offset[f - own.first];
+      if (other >= 0) {
+        const WindowSolution& theirs = solutions[other];
+        state.pose.pelvis_offset = (1 - weight) * state.pose.pelvis_offset + weight * theirs.offset[f - theirs.first];
+      }
+      state.builder.load(f);
+      state.builder.write(state.pose, refinement.plan, out);
+    }
+  };
+  for_each_window(window_count, options.threads, make_state, write);
+  long total = 0;
+  for (long count : iterations) total += count;
+  return total;
+}
+
+// Each joint's quaternion sign made continuous along the clip (the first frame with w >= 0).
+void continuous_signs(Clip& clip) {
+  const int joints = clip.joint_count();
+  for (int f = 0; f < clip.frame_count(); ++f) {
+    Eigen::Quaterniond* now = &clip.rotations[std::size_t(f) * joints];
+    for (int j = 0; j < joints; ++j) {
+      const double reference = f > 0 ? now[j].dot(now[j - joints]) : now[j].w();
+      if (reference < 0) now[j].coeffs() = -now[j].coeffs();
+    }
+  }
+}
+
+void check_options(const RefineOptions& options) {
+  const auto fail = [](const std::string& what) { throw std::invalid_argument("refine options: " + what); };
+  if (options.threads < 1) fail("threads must be at least 1, got " + std::to_string(options.threads));
+  if (options.window_frames < 1) fail("window_frames must be at least 1, got " + std::to_string(options.window_frames));
+  if (options.window_margin < 0 || 2 * options.window_margin > options.window_frames) {
+    fail("window_margin must be between 0 and half of window_frames, got " + std::to_string(options.window_margin));
+  }
+  if (!(options.smoothness_limit > 0) || !(options.pelvis_smoothness_limit > 0)) fail("smoothness limits must be positive");
+  if (options.max_iterations < 1 || options.window_iterations < 1) {
+    fail("iteration limits must be at least 1, got " + std::to_string(options.max_iterations) + " and " +
+         std::to_string(options.window_iterations));
+  }
+  if (!(options.contact_blend_seconds >= 0) || !std::isfinite(options.contact_blend_seconds)) {
+    fail("contact_blend_seconds must be a non-negative number, got " + std::to_string(options.contact_blend_seconds));
+  }
+  const RefineWeights& w = options.weights;
+  const std::pair<const char*, double> weights[] = {
+      {"bone_direction", w.bone_direction}, {"end_effector", w.end_effector}, {"foot_contact", w.foot_contact},
+      {"floor", w.floor},                   {"pose", w.pose},                 {"pelvis", w.pelvis},
+      {"smoothness", w.smoothness},         {"pelvis_smoothness", w.pelvis_smoothness}};
+  for (const auto& [name, value] : weights) {
+    if (!(value >= 0) || !std::isfinite(value)) fail(std::string("weight ") + name + " must be a non-negative number, got " + std::to_string(value));
+  }
+}
+
+}  // namespace
+}  // namespace refinement
+
+std::optional<Quality> parse_quality(std::string_view text) {
+  for (Quality quality : {Quality::fast, Quality::balanced, Quality::accurate}) {
+    if (text == quality_name(quality)) return quality;
+  }
+  return std::nullopt;
+}
+
+const char* quality_name(Quality quality) {
+  switch (quality) {
+    case Quality::fast: return "fast";
+    case Quality::balanced: return "balanced";
+    case Quality::accurate: return "accurate";
+  }
+  return "unknown";
+}
+
+RefineOptions default_refine_options(Quality quality) {
+  RefineOptions options;
+  options.quality = quality;
+  if (quality == Quality::accurate) {
+    options.weights.foot_contact = 100;
+    options.weights.smoothness = 0.0005;
+    options.weights.pelvis_smoothness = 0.01;
+    options.window_frames = 32;
+    options.window_margin = 8;
+  }
+  return options;
+}
+
+RefineSummary refine(RetargetResult& result, const Clip& source, const RefineOptions& options) {
+  using namespace refinement;
+  const Clock::time_point start = Clock::now();
+  check_options(options);
+  RefineSummary summary;
+  summary.frames = result.transfer.clip.frame_count();
+  if (options.quality == Quality::fast) {
+    result.report.quality = quality_name(options.quality);
+    summary.seconds = seconds_since(start);
+    return summary;
+  }
+  const RetargetRig& rig = result.rig;
+  if (source.skeleton.names() != rig.source.names() || source.skeleton.parents() != rig.source.parents()) {
+    throw std::invalid_argument("refine: the source clip's skeleton is not the one the result was retargeted from");
+  }
+  if (source.frame_count() != summary.frames || result.contacts.frame_count() != summary.frames) {
+    throw std::invalid_argument("refine: the source has " + std::to_string(source.frame_count()) + " frames, the result " +
+                                std::to_string(summary.frames) + " and its contacts " + std::to_string(result.contacts.frame_count()));
+  }
+
+  // The result is replaced only once everything has succeeded.
+  const RefineModel model = build_refine_model(result);
+  summary.unknown_joints = static_cast<int>(model.unknown_joints.size());
+  const Clip& reference = result.transfer.clip;
+  const int blend_frames = static_cast<int>(std::lround(options.contact_blend_seconds * reference.fps));
+  FrameBuilder planner(model, reference, source, result.source_feet);
+  const MotionPlan plan = plan_motion(model, planner, result.contacts, blend_frames, options.fit_stride);
+  summary.stride = plan.stride;
+  summary.height = plan.height;
+  Refinement refinement{model, reference, source, result.source_feet, plan, options, {}, {}};
+  refinement.solved_rotation.resize(std::size_t(summary.frames) * model.unknown_joints.size());
+  refinement.solved_offset.resize(summary.frames);
+  Clip out = reference;
+
+  const Clock::time_point solve_start = Clock::now();
+  summary.iterations = balanced_pass(refinement, out, summary.windows);
+  if (options.quality == Quality::accurate) summary.iterations += accurate_pass(refinement, out, summary.windows);
+  summary.solve_seconds = seconds_since(solve_start);
+  continuous_signs(out);
+
+  RetargetMetrics metrics = result_metrics(rig, source, result.source_feet, out, result.target_feet, result.contacts,
+                                           result.report.settings.metric_thresholds);
+  result.transfer.clip = std::move(out);
+  result.report.result_metrics = std::move(metrics);
+  result.report.quality = quality_name(options.quality);
+  summary.seconds = seconds_since(start);
+  return summary;
+}
+
+}  // namespace odyssey::retarget

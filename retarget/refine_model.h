@@ -1,0 +1,298 @@
+// The refinement's model of a target rig (refine.h): which joints are unknown, how every target
+// joint's world transform follows from them, the limbs the balanced solver splits a frame into,
+// their residuals written once for doubles and Ceres jets, the foot plan, and the per-frame data
+// the solvers read. Internal to refine.cpp; in a header so that tests can check its pieces.
+//
+// Placement of target joints (as transfer.h places them, so that a refined pose is assembled the
+// way the transfer assembled the reference, but for IK effectors):
+//   child      world = parent's world * local (local: solved, or the reference's)
+//   rigid      a follower: rigid with its anchor, X = X(A) X_ref(A)^-1 X_ref(j)
+//   attached   a detached joint inside the body: its position rigid with the anchor A,
+//              P = P(A) + W(A) W_ref(A)^-1 (P_ref(j) - P_ref(A)); its world rotation the
+//              reference's (the transfer drives it from the source)
+//   chain_end  an IK effector (a detached segment's end outside the pelvis's subtree, as
+//              RobotExpressive's feet under the root bone): at the end of its segment's start
+//              joint A, P = P(A) + W(A) c_rest with c_rest the rest chord A -> j in A's frame, so
+//              the leg reaches the foot; its world rotation the reference's
+//   root       the skeleton root above the pelvis: the reference's, moved by dp
+//
+// A limb is the part of the skeleton its residuals read: nodes from the pelvis down to every joint
+// a residual needs, each node hanging from its parent (child) or its anchor (rigid, attached,
+// chain_end), in an order where that node comes first. Its slots are the unknown rotations its
+// nodes read; the first `owned` are solved with it, the others are held at their current value.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "retarget/refine.h"
+
+namespace odyssey::retarget::refinement {
+
+template <class T>
+using Vector3 = Eigen::Matrix<T, 3, 1>;
+
+inline constexpr double kReferenceHeight = 1.7;  // m
+
+inline double smoothstep(double x) { return x * x * (3.0 - 2.0 * x); }
+
+enum class Placement { child, rigid, attached, chain_end, root };
+
+struct LimbNode {
+  int joint = -1;  // target joint
+  int from = -1;   // node it hangs from (its parent, or its anchor); -1: the pelvis
+  Placement kind = Placement::child;  // not root
+  int slot = -1;   // child nodes whose rotation is unknown: the limb's slot
+};
+
+struct DirectionTerm {
+  int from = -1, to = -1;        // nodes; `to` is -1 for a detached segment
+  Eigen::Vector3d rest_chord;    // detached: unit rest chord in the start joint's frame
+  int source_from = -1, source_to = -1;
+};
+
+struct EffectorTerm {
+  int node = -1;
+  int source_joint = -1;
+};
+
+struct FootTerm {
+  int side = 0;
+  std::vector<int> nodes;  // one per foot joint, in Foot::joints order
+  std::vector<double> ground_heights;
+};
+
+struct Limb {
+  std::string name;
+  std::vector<LimbNode> nodes;
+  std::vector<int> slots;  // unknown index of each slot, owned first
+  int owned = 0;
+  bool moves_pelvis = false;  // dp is solved with this limb
+  std::vector<DirectionTerm> directions;
+  std::vector<EffectorTerm> effectors;
+  std::vector<FootTerm> feet;
+  double length_scale = 1;  // RefineModel::length_scale
+  // Per node: whether its world transform depends on what the limb solves (its owned slots, dp
+  // if it moves the pelvis); the others read the frame's precomputed world transforms.
+  std::vector<std::uint8_t> variable;
+
+  int residual_count() const;
+  int parameter_count() const { return 3 * owned + (moves_pelvis ? 3 : 0); }  // rotation vectors, dp
+};
+
+struct RefineModel {
+  int pelvis = -1, root = -1;  // target joints
+  double scale = 1;            // the rig's height scale s
+  // Length residuals are multiplied by kReferenceHeight / the target's height (rig.h), so that a
+  // weight means the same on a 5 cm figure as on a 50 m one: weights are per metre of a 1.7 m
+  // tall character.
+  double length_scale = 1;
+  std::vector<Placement> placement;  // per target joint
+  std::vector<int> anchor;           // rigid, attached, chain_end: the joint it moves with
+  std::vector<Eigen::Vector3d> chain_end_offset;  // chain_end: c_rest
+  std::vector<int> order;            // every target joint after its parent and its anchor
+  std::vector<int> unknown_joints;   // ascending
+  std::vector<int> unknown_of;       // per target joint, -1 when not unknown
+  std::array<Foot, 2> feet;          // the target's
+  std::vector<Eigen::Quaterniond> rest_rotation;  // world, per target joint
+  std::vector<Limb> limbs;           // in solve order: lower body, spine, left arm, right arm
+  int source_pelvis = -1;
+};
+
+RefineModel build_refine_model(const RetargetResult& result);
+
+// The foot plan of one side (refine.h): per frame the foot joint it places (index into
+// Foot::joints, -1 none), and where: D(t) = p_ref(t) + offset(t) + follow(t) dp(t), p_ref the
+// joint in the reference pose (placed as above), dp the pelvis's displacement. In a contact
+// follow = 0 and D is the anchor; fading out, u(t) going from 1 to 0, offset = u (dp_plan + o)
+// and follow = 1 - u, so the foot passes from its anchor to moving with the body.
+//
+// A foot of one joint (no ball of the foot) cannot roll over its ball: held on the floor through
+// the source's toe-off, with the source's pitch it would push its toe into the floor. While
+// planted it is held flat, its rotation the rest's turned about z as the reference turns
+// (heading_of), slerped from the reference's with weight flat(t) = u(t) in the fades.
+struct FootPlan {
+  std::vector<std::int8_t> joint;
+  std::vector<Eigen::Vector3d> offset;
+  std::vector<double> follow;
+  std::vector<double> flat;  // empty for feet of two joints
+};
+
+// What refine() plans before solving: the stride factor k and the height h, the pelvis
+// displacement they imply, dp_plan(t) = ((k - 1) (P_ref(t) - P_ref(0)) horizontally, h), and
+// the feet.
+struct MotionPlan {
+  double stride = 1;
+  double height = 0;
+  std::vector<Eigen::Vector3d> pelvis_offset;  // dp_plan, per frame
+  std::array<FootPlan, 2> feet;
+};
+
+// The unknowns of one frame.
+struct FramePose {
+  std::vector<Eigen::Quaterniond> rotation;  // per unknown joint, local
+  Eigen::Vector3d pelvis_offset = Eigen::Vector3d::Zero();  // dp
+};
+
+// What a limb's residuals read in one frame.
+struct LimbFrame {
+  Eigen::Quaterniond pelvis_rotation;  // the reference's, world
+  Eigen::Vector3d pelvis_position;     // the reference's, world (dp not added)
+  Eigen::Vector3d pelvis_offset;       // dp's current value
+  Eigen::Vector3d pelvis_prior;        // dp_plan(t)
+  // Per node: child: local rotation (the reference's, or a slot's current value) and offset
+  // from the parent; rigid: rotation and offset relative to the anchor; attached, chain_end:
+  // world rotation, and offset from the anchor in the anchor's frame.
+  std::vector<Eigen::Quaterniond> node_rotation;
+  std::vector<Eigen::Vector3d> node_offset;
+  std::vector<Eigen::Quaterniond> world_rotation;  // forward kinematics at the current values
+  std::vector<Eigen::Vector3d> world_position;
+  std::vector<Eigen::Quaterniond> slot_value;      // current value of every slot
+  std::vector<Eigen::Quaterniond> slot_reference;  // the reference's local rotation of every slot
+  std::vector<Eigen::Vector3d> direction_target;   // unit
+  std::vector<Eigen::Vector3d> effector_target;    // s (p_S(e) - p_S(pelvis))
+  std::vector<int> contact_joint;                  // per foot term: the plan's joint, -1 none
+  std::vector<Eigen::Vector3d> contact_target;     // p_ref(t) + offset(t)
+  std::vector<double> contact_follow;              // follow(t)
+};
+
+// Reference and source poses of one frame, limb data from them, and the refined frame written
+// back. One per thread; holds scratch buffers.
+class FrameBuilder {
+ public:
+  FrameBuilder(const RefineModel& model, const Clip& reference, const Clip& source, const Feet& source_feet);
+
+  void load(int frame);
+  // The loaded frame's reference as a FramePose (unknowns at the reference, dp = 0).
+  void reference_pose(FramePose& pose) const;
+  // The loaded frame's reference local rotation of a target joint.
+  const Eigen::Quaterniond& reference_local(int joint) const { return local_rotation_[joint]; }
+  double fps() const { return reference_.fps; }
+  void fill(const Limb& limb, const FramePose& pose, const MotionPlan& plan, LimbFrame& frame) const;
+  // Where a joint is in the loaded frame's reference pose, placed as above (an IK foot at the
+  // end of its shin, not where the transfer put it).
+  const Eigen::Vector3d& reference_position(int joint) const { return reference_placed_[joint]; }
+  // Writes the loaded frame of `out` (a clip laid out as the reference) from a solved pose: every
+  // joint placed as above, single-joint feet held flat as the plan says, locals recomputed where
+  // a joint's parent or anchor moved.
+  void write(const FramePose& pose, const MotionPlan& plan, Clip& out);
+
+ private:
+  const RefineModel& model_;
+  const Clip& reference_;
+  const Clip& source_;
+  Eigen::Quaterniond levelling_;
+  std::vector<int> track_of_;         // per target joint: index in reference.translated_joints, or -1
+  std::vector<int> source_track_of_;  // the same for the source
+  int frame_ = -1;
+  std::vector<Eigen::Quaterniond> local_rotation_, world_rotation_;
+  std::vector<Eigen::Vector3d> local_translation_, world_position_;
+  std::vector<Eigen::Vector3d> source_position_;  // levelled, unscaled
+  std::vector<Eigen::Quaterniond> source_rotation_;
+  FramePose reference_pose_;
+  std::vector<Eigen::Vector3d> reference_placed_;
+  std::vector<Eigen::Quaterniond> new_rotation_;  // place()'s output
+  std::vector<Eigen::Vector3d> new_position_;
+  std::vector<std::uint8_t> flattened_;            // place() held the joint flat
+
+  void place(const FramePose& pose, const MotionPlan* plan);
+};
+
+// The plan (refine.h), from the reference (loaded frame by frame into `builder`) and the source's
+// contacts; blend_frames is contact_blend_seconds in frames; with fit_stride false, k = 1.
+MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const FootContacts& contacts, int blend_frames,
+                       bool fit_stride);
+
+// 2 vec(a^-1 b) with the sign that makes the scalar part >= 0: the rotation vector of a^-1 b
+// for small angles, the same for b and -b.
+template <class T>
+Vector3<T> rotation_difference(const Eigen::Quaternion<T>& a, const Eigen::Quaternion<T>& b) {
+  const Eigen::Quaternion<T> change = a.conjugate() * b;
+  const T sign = change.w() < T(0) ? T(-2) : T(2);
+  return sign * change.vec();
+}
+
+// Buffers for limb_residuals, sized for one limb, reused across evaluations (a jet is large, and
+// a fresh array of them would be zeroed on every call).
+template <class T>
+struct LimbWork {
+  std::vector<Eigen::Quaternion<T>, Eigen::aligned_allocator<Eigen::Quaternion<T>>> slot, rotation;
+  std::vector<Vector3<T>, Eigen::aligned_allocator<Vector3<T>>> position;
+  explicit LimbWork(const Limb& limb) : slot(limb.slots.size()), rotation(limb.nodes.size()), position(limb.nodes.size()) {}
+};
+
+// Residuals of one limb in one frame (refine.h), in the order: directions (3 each), effectors
+// (3 each), feet (contact 3, then floor 1 per joint), pose of the owned slots (3 each), pelvis
+// (3, when the limb moves it); lengths times limb.length_scale. The slots' rotations are in
+// work.slot.
+template <class T>
+void limb_residuals(const Limb& limb, const RefineWeights& w, const LimbFrame& frame, const Vector3<T>& pelvis_offset,
+                    LimbWork<T>& work, T* residual) {
+  using std::sqrt;
+  auto& rotation = work.rotation;
+  auto& position = work.position;
+  const auto& slot_rotation = work.slot;
+  const Eigen::Quaternion<T> pelvis_rotation = frame.pelvis_rotation.template cast<T>();
+  const Vector3<T> pelvis_position = frame.pelvis_position.template cast<T>() + pelvis_offset;
+  const std::size_t nodes = limb.nodes.size();
+  for (std::size_t n = 0; n < nodes; ++n) {
+    if (!limb.variable[n]) {
+      rotation[n] = frame.world_rotation[n].template cast<T>();
+      position[n] = frame.world_position[n].template cast<T>();
+      continue;
+    }
+    const LimbNode& node = limb.nodes[n];
+    const Eigen::Quaternion<T>& from_rotation = node.from < 0 ? pelvis_rotation : rotation[node.from];
+    const Vector3<T>& from_position = node.from < 0 ? pelvis_position : position[node.from];
+    position[n] = from_position + from_rotation * frame.node_offset[n].template cast<T>();
+    if (node.kind == Placement::attached || node.kind == Placement::chain_end) {
+      rotation[n] = frame.node_rotation[n].template cast<T>();
+    } else {
+      rotation[n] = from_rotation * (node.slot >= 0 ? slot_rotation[node.slot] : frame.node_rotation[n].template cast<T>());
+    }
+  }
+
+  T* r = residual;
+  const auto put = [&r](const Vector3<T>& value, double weight) {
+    for (int i = 0; i < 3; ++i) *r++ = T(weight) * value[i];
+  };
+  for (std::size_t d = 0; d < limb.directions.size(); ++d) {
+    const DirectionTerm& term = limb.directions[d];
+    Vector3<T> direction;
+    if (term.to < 0) {
+      direction = rotation[term.from] * term.rest_chord.template cast<T>();
+    } else {
+      const Vector3<T> chord = position[term.to] - position[term.from];
+      direction = chord / sqrt(chord.squaredNorm());
+    }
+    put(direction - frame.direction_target[d].template cast<T>(), w.bone_direction);
+  }
+  const double length = limb.length_scale;
+  for (std::size_t e = 0; e < limb.effectors.size(); ++e) {
+    put(position[limb.effectors[e].node] - pelvis_position - frame.effector_target[e].template cast<T>(), length * w.end_effector);
+  }
+  for (std::size_t f = 0; f < limb.feet.size(); ++f) {
+    const FootTerm& foot = limb.feet[f];
+    const int joint = frame.contact_joint[f];
+    if (joint >= 0) {
+      put(position[foot.nodes[joint]] - frame.contact_target[f].template cast<T>() - T(frame.contact_follow[f]) * pelvis_offset,
+          length * w.foot_contact);
+    } else {
+      put(Vector3<T>::Zero(), 0.0);
+    }
+    for (std::size_t k = 0; k < foot.nodes.size(); ++k) {
+      const T depth = T(foot.ground_heights[k]) - position[foot.nodes[k]].z();
+      *r++ = depth > T(0) ? T(length * w.floor) * depth : T(0);
+    }
+  }
+  for (int s = 0; s < limb.owned; ++s) {
+    put(rotation_difference(Eigen::Quaternion<T>(frame.slot_reference[s].template cast<T>()), slot_rotation[s]), w.pose);
+  }
+  if (limb.moves_pelvis) put(pelvis_offset - frame.pelvis_prior.template cast<T>(), length * w.pelvis);
+}
+
+}  // namespace odyssey::retarget::refinement

@@ -1,0 +1,369 @@
+// Refinement (qualities balanced and accurate) on the shared CMU walk onto the Mixamo-named test
+// rig, RiggedFigure and the IK-style RobotExpressive: feet planted during the source's contacts,
+// limbs still following the source, no more skating than the source, accurate smoother than
+// balanced, warm start and threads not changing the answer; and the placement model assembling
+// the transferred clip back from the transferred pose.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "mocap_io/bvh.h"
+#include "mocap_io/gltf_character.h"
+#include "retarget/geometry.h"
+#include "retarget/reference_rig.h"
+#include "retarget/refine.h"
+#include "retarget/refine_model.h"
+
+namespace odyssey::retarget {
+namespace {
+
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
+const std::string kAssets = std::string(ODYSSEY_SHARED_DIR) + "/assets";
+const std::vector<std::string> kCharacters = {"mixamo", "RiggedFigure.glb", "RobotExpressive.glb"};
+
+struct Shared {
+  Clip source;
+  std::map<std::string, RetargetResult> fast;  // by character
+};
+
+// The CMU walk (120 fps, 344 frames, opening with its T-pose reference frame) and its fast
+// retargets, made once for the whole file.
+const Shared& shared() {
+  static const Shared data = [] {
+    Shared shared;
+    shared.source = io::load_bvh(kAssets + "/mocap/cmu_walk_cgspeed.bvh", {io::kCmuMetresPerUnit});
+    const BoneMap source_map = humanoid_bone_map(shared.source.skeleton, "walk");
+    for (const std::string& name : kCharacters) {
+      const Character target = name == "mixamo" ? mixamo_reference_character(45) : io::load_character(kAssets + "/characters/" + name);
+      shared.fast.emplace(name, retarget_fast(shared.source, source_map, target, humanoid_bone_map(target.skeleton, name)));
+    }
+    return shared;
+  }();
+  return data;
+}
+
+RetargetResult refined(const std::string& character, const RefineOptions& options, RefineSummary* summary = nullptr) {
+  RetargetResult result = shared().fast.at(character);
+  const RefineSummary done = refine(result, shared().source, options);
+  if (summary) *summary = done;
+  return result;
+}
+
+// With the default options of a quality, made once per character.
+const RetargetResult& refined_by_default(const std::string& character, Quality quality) {
+  static std::map<std::pair<std::string, Quality>, RetargetResult> cache;
+  const auto key = std::pair{character, quality};
+  auto it = cache.find(key);
+  if (it == cache.end()) {
+    RefineSummary summary;
+    it = cache.emplace(key, refined(character, default_refine_options(quality), &summary)).first;
+    std::printf("%s, %s: %d frames in %.3f s (%.0f frames/s, one thread), stride %.3f\n", character.c_str(), quality_name(quality),
+                summary.frames, summary.seconds, summary.frames / summary.seconds, summary.stride);
+  }
+  return it->second;
+}
+
+std::vector<std::vector<Vector3d>> world_positions(const Clip& clip) {
+  std::vector<std::vector<Vector3d>> positions(clip.frame_count());
+  std::vector<RigidTransform<double>> world(clip.joint_count());
+  for (int f = 0; f < clip.frame_count(); ++f) {
+    clip.world_pose(f, world);
+    for (const auto& joint : world) positions[f].push_back(joint.translation);
+  }
+  return positions;
+}
+
+// Over the (foot, frame) where the source foot is planted: the largest distance of the foot's
+// lowest point from the floor, and the largest horizontal step, to the next frame when the foot
+// is planted in both, of the foot joint that is lowest in the first.
+struct ContactError {
+  double height = 0, slide = 0;
+};
+
+ContactError contact_error(const RetargetResult& result) {
+  const auto positions = world_positions(result.transfer.clip);
+  ContactError error;
+  for (int side = 0; side < 2; ++side) {
+    const Foot& foot = result.target_feet[side];
+    const auto& planted = result.contacts.planted[side];
+    for (std::size_t f = 0; f < positions.size(); ++f) {
+      if (!planted[f]) continue;
+      error.height = std::max(error.height, std::abs(foot_clearance(foot, positions[f])));
+      if (f + 1 < positions.size() && planted[f + 1]) {
+        const int joint = foot.joints[lowest_foot_joint(foot, positions[f])];
+        error.slide = std::max(error.slide, (positions[f + 1][joint] - positions[f][joint]).head<2>().norm());
+      }
+    }
+  }
+  return error;
+}
+
+void print_metrics(const std::string& label, const RetargetMetrics& metrics) {
+  std::printf("%-30s bone direction mean %.2f max %.1f deg |", label.c_str(), metrics.bone_direction.mean_deg, metrics.bone_direction.max_deg);
+  for (const auto& limb : metrics.limbs) std::printf(" %s %.2f/%.1f", limb.name.c_str(), limb.error.mean_deg, limb.error.max_deg);
+  std::printf(" | end effector %.3f m | skate %.3f | penetration %.3f cm, floating %.3f cm | jitter %.1f m/s^2\n",
+              metrics.end_effector_mean_m, metrics.foot_skate_ratio, metrics.penetration_cm, metrics.floating_cm, metrics.jitter);
+}
+
+struct Case {
+  std::string character;
+  Quality quality;
+};
+
+class RefineWalkTest : public testing::TestWithParam<Case> {};
+
+TEST_P(RefineWalkTest, FeetStayPlantedDuringSourceContacts) {
+  const Case& c = GetParam();
+  const RetargetResult& result = refined_by_default(c.character, c.quality);
+  const ContactError error = contact_error(result);
+  const ContactError before = contact_error(shared().fast.at(c.character));
+  std::printf("contact frames: lowest point within %.2f mm of the floor (fast %.1f mm), slides at most %.2f mm a frame (fast %.1f mm)\n",
+              1000 * error.height, 1000 * before.height, 1000 * error.slide, 1000 * before.slide);
+  EXPECT_LT(error.height, 0.01);
+  EXPECT_LT(error.slide, 0.01);
+  const RetargetMetrics& metrics = result.report.result_metrics;
+  EXPECT_LT(metrics.penetration_cm, 1.0);
+  EXPECT_LT(metrics.floating_cm, 1.0);
+  EXPECT_EQ(result.report.quality, quality_name(c.quality));
+}
+
+// Every limb's mean bone direction error stays under 2 degrees, but RobotExpressive's legs: its
+// foot is one joint at the heel (no ball of the foot, mapped or in the rig), so it is held on the
+// floor through the performer's toe-off, when the ankle, at the robot's 2.29 times the
+// performer's size, would be up to 24 cm up; the leg cannot reach that far down, the pelvis
+// drops and the other leg bends (2.6 to 3.4 degrees on average over the clip).
+TEST_P(RefineWalkTest, LimbsFollowTheSource) {
+  const Case& c = GetParam();
+  const RetargetResult& result = refined_by_default(c.character, c.quality);
+  print_metrics(c.character + " source", result.report.source_metrics);
+  print_metrics(c.character + " fast", shared().fast.at(c.character).report.result_metrics);
+  print_metrics(c.character + " " + quality_name(c.quality), result.report.result_metrics);
+  const RetargetMetrics& metrics = result.report.result_metrics;
+  ASSERT_FALSE(metrics.limbs.empty());
+  for (const auto& limb : metrics.limbs) {
+    const bool robot_leg = c.character == "RobotExpressive.glb" && limb.name.find("leg") != std::string::npos;
+    EXPECT_LT(limb.error.mean_deg, robot_leg ? 3.6 : 2.0) << limb.name;
+  }
+}
+
+TEST_P(RefineWalkTest, NoMoreSkatingThanTheSource) {
+  const Case& c = GetParam();
+  const RetargetResult& result = refined_by_default(c.character, c.quality);
+  EXPECT_LE(result.report.result_metrics.foot_skate_ratio, result.report.source_metrics.foot_skate_ratio);
+}
+
+INSTANTIATE_TEST_SUITE_P(CmuWalk, RefineWalkTest,
+                         testing::Values(Case{"mixamo", Quality::balanced}, Case{"mixamo", Quality::accurate},
+                                         Case{"RiggedFigure.glb", Quality::balanced}, Case{"RiggedFigure.glb", Quality::accurate},
+                                         Case{"RobotExpressive.glb", Quality::balanced},
+                                         Case{"RobotExpressive.glb", Quality::accurate}),
+                         [](const auto& info) {
+                           return info.param.character.substr(0, info.param.character.find('.')) + "_" + quality_name(info.param.quality);
+                         });
+
+TEST(RefineTest, AccurateIsSmootherThanBalanced) {
+  for (const std::string& character : kCharacters) {
+    const double balanced = refined_by_default(character, Quality::balanced).report.result_metrics.jitter;
+    const double accurate = refined_by_default(character, Quality::accurate).report.result_metrics.jitter;
+    std::printf("%s: jitter balanced %.1f, accurate %.1f m/s^2\n", character.c_str(), balanced, accurate);
+    EXPECT_LT(accurate, 0.95 * balanced) << character;
+  }
+}
+
+// The largest distance between the two clips' joints over all frames, and the largest angle
+// between their local rotations.
+std::pair<double, double> clip_difference(const Clip& a, const Clip& b) {
+  const auto pa = world_positions(a), pb = world_positions(b);
+  double distance = 0, angle = 0;
+  for (std::size_t f = 0; f < pa.size(); ++f) {
+    for (std::size_t j = 0; j < pa[f].size(); ++j) distance = std::max(distance, (pa[f][j] - pb[f][j]).norm());
+  }
+  for (std::size_t i = 0; i < a.rotations.size(); ++i) angle = std::max(angle, a.rotations[i].angularDistance(b.rotations[i]));
+  return {distance, angle};
+}
+
+// Each frame's problems have one minimum near the reference: starting there (cold) or from the
+// previous frame's solution (warm) lands on it to within the solver's tolerances.
+TEST(RefineTest, WarmStartMatchesColdStart) {
+  for (const std::string& character : kCharacters) {
+    for (Quality quality : {Quality::balanced, Quality::accurate}) {
+      RefineOptions warm = default_refine_options(quality), cold = warm;
+      cold.warm_start = false;
+      RefineSummary warm_summary, cold_summary;
+      const RetargetResult a = refined(character, warm, &warm_summary), b = refined(character, cold, &cold_summary);
+      const auto [distance, angle] = clip_difference(a.transfer.clip, b.transfer.clip);
+      EXPECT_LT(distance, 1e-5) << character << " " << quality_name(quality);
+      EXPECT_LT(angle, 1e-4) << character << " " << quality_name(quality);
+      EXPECT_LT(warm_summary.iterations, cold_summary.iterations) << character << " " << quality_name(quality);
+    }
+  }
+}
+
+// Windows are cut at the same frames whatever the thread count and read nothing another window
+// writes: the result is the same to the bit.
+TEST(RefineTest, ThreadsDoNotChangeTheResult) {
+  for (const std::string& character : {std::string("mixamo"), std::string("RobotExpressive.glb")}) {
+    for (Quality quality : {Quality::balanced, Quality::accurate}) {
+      RefineOptions options = default_refine_options(quality);
+      options.threads = 2;
+      const Clip& one = refined_by_default(character, quality).transfer.clip;
+      const Clip two = refined(character, options).transfer.clip;
+      ASSERT_EQ(one.rotations.size(), two.rotations.size());
+      for (std::size_t i = 0; i < one.rotations.size(); ++i) {
+        ASSERT_EQ(one.rotations[i].coeffs(), two.rotations[i].coeffs()) << character << " " << quality_name(quality) << " " << i;
+      }
+      EXPECT_EQ(one.translations, two.translations) << character << " " << quality_name(quality);
+    }
+  }
+}
+
+// RobotExpressive's feet hang from the root bone: the refined foot is where its shin ends, and
+// while planted it is flat (its rest rotation turned about z only), so the toe stays out of the
+// floor at toe-off.
+TEST(RefineTest, IkFeetEndTheirShinsAndLieFlatWhilePlanted) {
+  const RetargetResult& result = refined_by_default("RobotExpressive.glb", Quality::balanced);
+  const Skeleton& skeleton = result.rig.target;
+  const std::vector<RigidTransform<double>> rest = skeleton.rest_world();
+  std::vector<RigidTransform<double>> world(skeleton.joint_count());
+  double gap = 0, tilt = 0;
+  for (int f = 0; f < result.transfer.clip.frame_count(); ++f) {
+    result.transfer.clip.world_pose(f, world);
+    for (int side = 0; side < 2; ++side) {
+      const int knee = result.rig.target_joint(side == 0 ? canonical::left_knee : canonical::right_knee);
+      const int foot = result.rig.target_joint(side == 0 ? canonical::left_ankle : canonical::right_ankle);
+      const Vector3d shin_end = world[knee].translation + world[knee].rotation * rest[knee].rotation.transpose() *
+                                                              (rest[foot].translation - rest[knee].translation);
+      gap = std::max(gap, (shin_end - world[foot].translation).norm());
+      if (result.contacts.planted[side][f]) {
+        // The foot's rotation from rest, with its turn about z taken out, is the identity.
+        const Quaterniond change(Eigen::Matrix3d(world[foot].rotation * rest[foot].rotation.transpose()));
+        tilt = std::max(tilt, heading_of(change).angularDistance(change));
+      }
+    }
+  }
+  EXPECT_LT(gap, 1e-9);
+  EXPECT_LT(tilt, 1e-9);
+}
+
+// The same rig at 3 cm and 47 m (the Mixamo test rig scaled by 0.02 and 30) moves the same way:
+// length residuals are measured against the character's height, so the trade between directions
+// and lengths does not depend on its size.
+TEST(RefineTest, SameMotionAtAnySize) {
+  const Clip& reference = refined_by_default("mixamo", Quality::balanced).transfer.clip;
+  for (double factor : {0.02, 30.0}) {
+    Character target = mixamo_reference_character(45);
+    std::vector<Vector3d> offsets = target.skeleton.rest_offsets();
+    for (Vector3d& offset : offsets) offset *= factor;
+    target.skeleton = Skeleton(target.skeleton.names(), target.skeleton.parents(), offsets, target.skeleton.rest_rotations());
+    const Clip& source = shared().source;
+    RetargetResult result = retarget_fast(source, humanoid_bone_map(source.skeleton, "walk"), target, detect_bone_map(target.skeleton));
+    refine(result, source, default_refine_options(Quality::balanced));
+    double angle = 0;
+    for (std::size_t i = 0; i < reference.rotations.size(); ++i) angle = std::max(angle, reference.rotations[i].angularDistance(result.transfer.clip.rotations[i]));
+    EXPECT_LT(angle, 1e-5) << factor;
+    EXPECT_LT(contact_error(result).height / factor, 0.01) << factor;
+  }
+}
+
+TEST(RefineTest, FastLeavesTheClipAlone) {
+  RetargetResult result = shared().fast.at("mixamo");
+  const RefineSummary summary = refine(result, shared().source, default_refine_options(Quality::fast));
+  EXPECT_EQ(result.report.quality, "fast");
+  EXPECT_EQ(summary.iterations, 0);
+  const Clip& before = shared().fast.at("mixamo").transfer.clip;
+  for (std::size_t i = 0; i < before.rotations.size(); ++i) ASSERT_EQ(before.rotations[i].coeffs(), result.transfer.clip.rotations[i].coeffs());
+}
+
+TEST(RefineTest, QualityNamesRoundTrip) {
+  for (Quality quality : {Quality::fast, Quality::balanced, Quality::accurate}) EXPECT_EQ(parse_quality(quality_name(quality)), quality);
+  EXPECT_FALSE(parse_quality("best"));
+  EXPECT_FALSE(parse_quality("Balanced"));
+}
+
+TEST(RefineTest, RejectsBadOptionsAndForeignSources) {
+  const auto rejects = [](const RefineOptions& options) {
+    RetargetResult result = shared().fast.at("RiggedFigure.glb");
+    EXPECT_THROW(refine(result, shared().source, options), std::invalid_argument);
+  };
+  RefineOptions options = default_refine_options(Quality::balanced);
+  options.threads = 0;
+  rejects(options);
+  options = default_refine_options(Quality::accurate);
+  options.window_margin = options.window_frames;
+  rejects(options);
+  options = default_refine_options(Quality::balanced);
+  options.weights.foot_contact = -1;
+  rejects(options);
+  options = default_refine_options(Quality::balanced);
+  options.weights.pose = std::nan("");
+  rejects(options);
+
+  RetargetResult result = shared().fast.at("RiggedFigure.glb");
+  Clip shorter = shared().source;
+  shorter.rotations.resize(shorter.rotations.size() - shorter.joint_count());
+  shorter.translations.resize(shorter.translations.size() - shorter.translated_joints.size());
+  EXPECT_THROW(refine(result, shorter, default_refine_options(Quality::balanced)), std::invalid_argument);
+}
+
+// Placed from the transferred pose itself (unknowns at the reference, dp = 0), every joint comes
+// back where the transfer put it: followers and attached joints rigid with their anchors, the root
+// where it was. RobotExpressive's feet, placed by position in the transfer, move to their shins'
+// ends instead.
+TEST(RefineModelTest, ReferencePoseAssemblesTheTransferredClip) {
+  for (const std::string& character : kCharacters) {
+    const RetargetResult& fast = shared().fast.at(character);
+    const Clip& reference = fast.transfer.clip;
+    const refinement::RefineModel model = refinement::build_refine_model(fast);
+    refinement::FrameBuilder builder(model, reference, shared().source, fast.source_feet);
+    refinement::MotionPlan plan = refinement::plan_motion(model, builder, fast.contacts, 12, true);
+    for (auto& foot : plan.feet) foot.flat.clear();
+    Clip out = reference;
+    refinement::FramePose pose;
+    for (int f = 0; f < reference.frame_count(); ++f) {
+      builder.load(f);
+      builder.reference_pose(pose);
+      builder.write(pose, plan, out);
+    }
+    const auto expected = world_positions(reference), placed = world_positions(out);
+    for (int j = 0; j < reference.joint_count(); ++j) {
+      bool below_chain_end = false;
+      for (int a = j; a >= 0; a = reference.skeleton.parent(a)) below_chain_end |= model.placement[a] == refinement::Placement::chain_end;
+      if (below_chain_end) continue;
+      double worst = 0;
+      for (int f = 0; f < reference.frame_count(); ++f) worst = std::max(worst, (placed[f][j] - expected[f][j]).norm());
+      EXPECT_LT(worst, 1e-9) << character << " " << reference.skeleton.name(j);
+    }
+  }
+}
+
+// The Mixamo test rig's unknowns are the starts of its body's chain bones, split into the lower
+// body (which moves the pelvis), the spine and each arm, in that order.
+TEST(RefineModelTest, MixamoLimbs) {
+  const RetargetResult& fast = shared().fast.at("mixamo");
+  const refinement::RefineModel model = refinement::build_refine_model(fast);
+  std::vector<std::string> names;
+  for (int j : model.unknown_joints) names.push_back(std::string(canonical_name(fast.rig.target_map.canonical_of(j))));
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"left_ankle", "left_collar", "left_elbow", "left_hip", "left_knee", "left_shoulder",
+                                             "left_wrist", "neck", "right_ankle", "right_collar", "right_elbow", "right_hip",
+                                             "right_knee", "right_shoulder", "right_wrist", "spine1", "spine3"}));
+  ASSERT_EQ(model.limbs.size(), 4u);
+  EXPECT_EQ(model.limbs[0].name, "lower body");
+  EXPECT_TRUE(model.limbs[0].moves_pelvis);
+  EXPECT_EQ(model.limbs[0].owned, 6);
+  EXPECT_EQ(model.limbs[0].feet.size(), 2u);
+  EXPECT_EQ(model.limbs[1].name, "spine");
+  EXPECT_EQ(model.limbs[2].name, "left arm");
+  EXPECT_EQ(model.limbs[3].name, "right arm");
+  for (std::size_t l = 1; l < 4; ++l) EXPECT_FALSE(model.limbs[l].moves_pelvis);
+}
+
+}  // namespace
+}  // namespace odyssey::retarget
