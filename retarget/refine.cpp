@@ -408,7 +408,8 @@ long accurate_pass(const Refinement& refinement, Clip& out, int& window_count) {
     const auto rotation_block = [&](int i, int s) { return solution.rotation[std::size_t(i) * slots + s].coeffs().data(); };
     std::vector<double*> blocks;
     for (int i = 0; i < count; ++i) {
-      auto* cost = new ceres::DynamicAutoDiffCostFunction<WindowLimbCost, kWindowStride>(new WindowLimbCost(limb, weights, state.limb_frames[i]));
+      auto* cost = new ceres::DynamicAutoDiffCostFunction<WindowLimbCost, kWindowStride>(
+          new WindowLimbCost(limb, weights, state.limb_frames[i]));
       blocks.assign({solution.offset[i].data()});
       cost->AddParameterBlock(3);
       for (int s = 0; s < slots; ++s) {
@@ -435,8 +436,9 @@ long accurate_pass(const Refinement& refinement, Clip& out, int& window_count) {
         }
       }
       if (weights.pelvis_smoothness > 0) {
-        problem.AddResidualBlock(PelvisAcceleration::Create(model.length_scale * weights.pelvis_smoothness * fps_squared), &state.pelvis_jump,
-                                 solution.offset[i - 1].data(), solution.offset[i].data(), solution.offset[i + 1].data());
+        const double weight = model.length_scale * weights.pelvis_smoothness * fps_squared;
+        problem.AddResidualBlock(PelvisAcceleration::Create(weight), &state.pelvis_jump, solution.offset[i - 1].data(),
+                                 solution.offset[i].data(), solution.offset[i + 1].data());
       }
     }
     ceres::Solver::Summary summary;
@@ -518,7 +520,9 @@ void check_options(const RefineOptions& options) {
       {"floor", w.floor},                   {"pose", w.pose},                 {"pelvis", w.pelvis},
       {"smoothness", w.smoothness},         {"pelvis_smoothness", w.pelvis_smoothness}};
   for (const auto& [name, value] : weights) {
-    if (!(value >= 0) || !std::isfinite(value)) fail(std::string("weight ") + name + " must be a non-negative number, got " + std::to_string(value));
+    if (!(value >= 0) || !std::isfinite(value)) {
+      fail(std::string("weight ") + name + " must be a non-negative number, got " + std::to_string(value));
+    }
   }
 }
 

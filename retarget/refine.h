@@ -48,12 +48,13 @@
 //
 // The plan, fixed before solving (refine_model.h: plan_motion):
 // - Stride and height. The height ratio s scales the root's travel, but the target's legs need
-//   not be s times the source's (the Mixamo test rig's are 16% shorter, RiggedFigure's and
-//   RobotExpressive's 20% and 22%): with every leg bone along the source's, a planted foot would
-//   slide by that share of each stride. The stride factor k is fitted so that moving the body by
-//   (k - 1) times the pelvis's horizontal travel best stills the reference's planted feet (least
-//   squares, ridge-regularised, within [0.5, 2]; reported in RefineSummary), and the height h is
-//   the median over planted frames of how far the support joint is from the floor; then
+//   not be s times the source's (against the CMU walk's performer, the Mixamo test rig's are
+//   16% shorter, RiggedFigure's 21%, RobotExpressive's 20%): with every leg bone along the
+//   source's, a planted foot would slide by that share of each stride. The stride factor k is
+//   fitted so that moving the body by (k - 1) times the pelvis's horizontal travel best stills
+//   the reference's planted feet (least squares, ridge-regularised, within [0.5, 2]; reported in
+//   RefineSummary), and the height h is the median over planted frames of how far the support
+//   joint is from the floor; then
 //   dp_plan(t) = ((k - 1) (P_ref(t) - P_ref(0)) horizontally, h). The character covers k times
 //   the ground the transfer gave it, which is what its legs can walk (`fit_stride` off: k = 1).
 // - Feet. Feet are the joints contacts.h names (ankle, ball of the foot) with the target's ground

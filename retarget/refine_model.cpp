@@ -455,7 +455,8 @@ void FrameBuilder::load(int frame) {
   const std::size_t tracks = reference_.translated_joints.size();
   for (int j = 0; j < skeleton.joint_count(); ++j) {
     local_rotation_[j] = reference_.rotation(frame, j);
-    local_translation_[j] = track_of_[j] >= 0 ? reference_.translations[std::size_t(frame) * tracks + track_of_[j]] : skeleton.rest_offsets()[j];
+    local_translation_[j] =
+        track_of_[j] >= 0 ? reference_.translations[std::size_t(frame) * tracks + track_of_[j]] : skeleton.rest_offsets()[j];
     const int p = skeleton.parent(j);
     world_rotation_[j] = p < 0 ? local_rotation_[j] : world_rotation_[p] * local_rotation_[j];
     world_position_[j] = p < 0 ? local_translation_[j] : Eigen::Vector3d(world_position_[p] + world_rotation_[p] * local_translation_[j]);
@@ -509,8 +510,9 @@ void FrameBuilder::fill(const Limb& limb, const FramePose& pose, const MotionPla
       const int a = model_.anchor[j];
       const Eigen::Quaterniond anchor_inverse = world_rotation_[a].conjugate();
       frame.node_rotation[n] = node.kind == Placement::rigid ? anchor_inverse * world_rotation_[j] : world_rotation_[j];
-      frame.node_offset[n] = node.kind == Placement::chain_end ? model_.chain_end_offset[j]
-                                                                : Eigen::Vector3d(anchor_inverse * (world_position_[j] - world_position_[a]));
+      frame.node_offset[n] = node.kind == Placement::chain_end
+                                 ? model_.chain_end_offset[j]
+                                 : Eigen::Vector3d(anchor_inverse * (world_position_[j] - world_position_[a]));
     }
     const Eigen::Quaterniond& from_rotation = node.from < 0 ? frame.pelvis_rotation : frame.world_rotation[node.from];
     const Eigen::Vector3d& from_position = node.from < 0 ? pelvis_position : frame.world_position[node.from];
