@@ -4,6 +4,8 @@
 // second are Google Benchmark's items_per_second. Before the table, the accuracy of the same
 // code path against the smplx reference fixture is printed, so speed and error are read together.
 #include <benchmark/benchmark.h>
+
+#include "bench/machine.h"
 #include <sys/resource.h>
 
 #include <Eigen/Core>
@@ -260,21 +262,6 @@ void print_reference_accuracy() {
               "max |vertex error| %.2g m\n", frames, joint_error, vertex_error);
 }
 
-// "model name" from /proc/cpuinfo, with the family and model numbers: virtual machines often
-// report only a brand ("AMD EPYC"), and the numbers still tell the generation (family 26: Zen 5).
-std::string cpu_model() {
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  std::string line, name = "unknown CPU", family, model;
-  const auto value = [&] { return line.substr(line.find(':') + 2); };
-  // The first processor's block ends at the first blank line.
-  while (std::getline(cpuinfo, line) && !line.empty()) {
-    if (line.rfind("model name", 0) == 0) name = value();
-    if (line.rfind("cpu family", 0) == 0) family = value();
-    if (line.rfind("model\t", 0) == 0) model = value();
-  }
-  return family.empty() ? name : name + " (family " + family + ", model " + model + ")";
-}
-
 }  // namespace
 }  // namespace odyssey
 
@@ -293,7 +280,7 @@ int main(int argc, char** argv) {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   std::printf("machine: %s, %u cores; runs on 1 thread (Eigen threads: %d); peak RSS %.0f MiB\n",
-              odyssey::cpu_model().c_str(), std::thread::hardware_concurrency(), Eigen::nbThreads(),
+              odyssey::bench::cpu_model().c_str(), std::thread::hardware_concurrency(), Eigen::nbThreads(),
               usage.ru_maxrss / 1024.0);
   return 0;
 }

@@ -23,6 +23,8 @@
 #pragma GCC diagnostic pop
 
 #include <benchmark/benchmark.h>
+
+#include "bench/machine.h"
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -279,20 +281,6 @@ void print_table() {
   std::printf("(the sampled-points row counts point-frames)\n");
 }
 
-// "model name" from /proc/cpuinfo, with the family and model numbers (as bench_body_model prints
-// it): virtual machines often report only a brand, and the numbers still tell the generation.
-std::string cpu_model() {
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  std::string line, name = "unknown CPU", family, model;
-  const auto value = [&] { return line.substr(line.find(':') + 2); };
-  while (std::getline(cpuinfo, line) && !line.empty()) {
-    if (line.rfind("model name", 0) == 0) name = value();
-    if (line.rfind("cpu family", 0) == 0) family = value();
-    if (line.rfind("model\t", 0) == 0) model = value();
-  }
-  return family.empty() ? name : name + " (family " + family + ", model " + model + ")";
-}
-
 }  // namespace
 }  // namespace odyssey::skinning
 
@@ -319,7 +307,7 @@ int main(int argc, char** argv) {
   print_table();
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
-  std::printf("machine: %s, %u cores; peak RSS %.0f MiB\n", cpu_model().c_str(), std::thread::hardware_concurrency(),
+  std::printf("machine: %s, %u cores; peak RSS %.0f MiB\n", odyssey::bench::cpu_model().c_str(), std::thread::hardware_concurrency(),
               usage.ru_maxrss / 1024.0);
   return 0;
 }

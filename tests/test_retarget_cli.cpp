@@ -12,6 +12,8 @@
 // is the rest rotation), with `body+hands` they follow the source's curled fingers, and `all`
 // adds the eyes where both maps have them.
 #include <gtest/gtest.h>
+
+#include "cli_runner.h"
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -47,22 +49,8 @@ const std::string kWalkBvh = kAssets + "/mocap/cmu_walk_cgspeed.bvh";
 
 std::string character_path(const std::string& file) { return kAssets + "/characters/" + file; }
 
-struct Result {
-  int exit_code;
-  std::string output;  // stdout and stderr together
-};
-
-Result run(const std::string& arguments) {
-  const std::string command = std::string(ODYSSEY_CLI) + " " + arguments + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  Result result{-1, ""};
-  if (!pipe) return result;
-  std::array<char, 4096> buffer;
-  while (std::fgets(buffer.data(), buffer.size(), pipe)) result.output += buffer.data();
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using Result = odyssey::test_support::CliResult;
+const auto run = odyssey::test_support::run_cli;
 
 fs::path scratch(const std::string& name) {
   const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "retarget_cli";
