@@ -1,8 +1,10 @@
 // odyssey demo: the main job on built-in defaults. Generates the synthetic SMPL-X body and a
 // synthetic AMASS-style walk, poses the body over the walk (joints and full mesh per frame),
 // converts the bundled CMU walk BVH to world joint trajectories, and retargets that walk onto the
-// bundled character as an animated GLB with its report, timing each step. The retarget step runs
-// `odyssey retarget` itself, with the command line printed, so the demo shows what a user types.
+// bundled character as an animated GLB (with a camera riding on its head) and its report, tracks
+// 5,000 surface points through an orbiting camera (annotation npz) and writes the deformed mesh as
+// a PC2 point cache, timing each step. Those steps run the odyssey commands themselves, with the
+// command lines printed, so the demo shows what a user types.
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -37,7 +39,9 @@ int run_demo(const std::vector<std::string>& arguments) {
             "Run the main job on the bundled defaults: write the synthetic SMPL-X body model, a synthetic\n"
             "AMASS-style SMPL-X walk, the body posed over the walk (joints and vertices per frame), and the\n"
             "bundled CMU walk BVH as world joint trajectories, then retarget the CMU walk onto the bundled\n"
-            "character (odyssey retarget) as an animated GLB with its JSON report. Everything goes to --out.");
+            "character (odyssey retarget) as an animated GLB with an ego-head camera and its JSON report, track\n"
+            "5,000 of its surface points through an orbiting camera (odyssey trajectories) and write its mesh\n"
+            "every frame as a PC2 point cache (odyssey point-cache). Everything goes to --out.");
   args.option("out", "DIR", "output folder", "demo-out")
       .option("data", "DIR", "the bundled data folder", ODYSSEY_DATA_DIR)
       .option("seconds", "S", "length of the synthetic walk", "4")
@@ -81,19 +85,31 @@ int run_demo(const std::vector<std::string>& arguments) {
   std::printf("%-44s %7.2f s  (%d frames, %d joints)\n", ("CMU walk joints   -> " + bvh_out).c_str(), step.seconds(),
               clip.frame_count(), clip.joint_count());
 
-  step = Stopwatch();
+  // The retargeting steps, each run as the odyssey command a user would type, printed first.
   const std::string character = args.get("character");
-  const std::string retarget_stem = (out / ("cmu_walk_on_" + character)).string();
-  const std::vector<std::string> retarget_arguments = {
+  const std::string stem = (out / ("cmu_walk_on_" + character)).string();
+  const std::vector<std::string> motion_arguments = {
       "--motion", bvh_path, "--bvh-units", "cmu", "--character", (data / "characters" / (character + ".glb")).string(),
-      "--out", retarget_stem + ".glb", "--report", retarget_stem + ".report.json", "--quality", args.get("quality"),
-      "--fps", args.get("fps")};
-  std::string command_line = "odyssey retarget";
-  for (const std::string& argument : retarget_arguments) command_line += " " + argument;
-  std::printf("\n%s\n", command_line.c_str());
-  std::fflush(stdout);
-  run_retarget(retarget_arguments);
-  std::printf("%-44s %7.2f s\n", ("retargeted walk   -> " + retarget_stem + ".glb").c_str(), step.seconds());
+      "--quality", args.get("quality"), "--fps", args.get("fps")};
+  const auto run_step = [&](const char* label, const char* name, int (*command)(const std::vector<std::string>&),
+                            std::vector<std::string> extra, const std::string& output) {
+    std::vector<std::string> arguments = motion_arguments;
+    arguments.insert(arguments.end(), extra.begin(), extra.end());
+    std::string command_line = std::string("odyssey ") + name;
+    for (const std::string& argument : arguments) command_line += " " + argument;
+    std::printf("\n%s\n", command_line.c_str());
+    std::fflush(stdout);
+    const Stopwatch watch;
+    command(arguments);
+    std::printf("%-44s %7.2f s\n", (std::string(label) + " -> " + output).c_str(), watch.seconds());
+  };
+  run_step("retargeted walk  ", "retarget", run_retarget,
+           {"--out", stem + ".glb", "--report", stem + ".report.json", "--camera", "ego", "--camera-path",
+            stem + ".ego_camera.json"},
+           stem + ".glb");
+  run_step("tracked points   ", "trajectories", run_trajectories,
+           {"--out", stem + ".trajectories.npz", "--points", "5000", "--camera", "orbit"}, stem + ".trajectories.npz");
+  run_step("point cache      ", "point-cache", run_point_cache, {"--out", stem + ".pc2"}, stem + ".pc2");
   return 0;
 }
 

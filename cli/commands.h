@@ -13,5 +13,7 @@ int run_pose(const std::vector<std::string>& arguments);
 int run_make_body(const std::vector<std::string>& arguments);
 int run_demo(const std::vector<std::string>& arguments);
 int run_retarget(const std::vector<std::string>& arguments);
+int run_trajectories(const std::vector<std::string>& arguments);
+int run_point_cache(const std::vector<std::string>& arguments);
 
 }  // namespace odyssey::cli

@@ -24,11 +24,15 @@ constexpr Command kCommands[] = {
     {"make-body", "write a synthetic SMPL-X body model in the smplx npz layout", odyssey::cli::run_make_body},
     {"retarget", "retarget a BVH or AMASS motion onto a rigged glTF character, write an animated GLB and a report",
      odyssey::cli::run_retarget},
+    {"trajectories", "retarget, then write tracked surface points, their pixels and the cameras as an annotation npz",
+     odyssey::cli::run_trajectories},
+    {"point-cache", "retarget, then write the deformed mesh every frame as a PC2 point cache with its rest OBJ",
+     odyssey::cli::run_point_cache},
 };
 
 void print_usage(std::FILE* stream) {
   std::fputs("usage: odyssey COMMAND [options]   (odyssey COMMAND --help for details)\n\ncommands:\n", stream);
-  for (const Command& command : kCommands) std::fprintf(stream, "  %-10s %s\n", command.name, command.summary);
+  for (const Command& command : kCommands) std::fprintf(stream, "  %-12s %s\n", command.name, command.summary);
 }
 
 }  // namespace

@@ -113,17 +113,39 @@ class BvhParser {
     return text_.substr(start, position_ - start);
   }
 
-  // The token as a finite number; anything else fails with a one-line reason. A leading '+' is allowed
+  // The token as a finite number, or why it is not one (empty when it is). A leading '+' is allowed
   // (from_chars alone rejects it); ".0083333" style values without a leading zero parse as is.
-  double to_number(std::string_view token, int line) const {
+  static std::string parse_number(std::string_view token, double& value) {
     std::string_view digits = token;
     if (digits.size() > 1 && digits[0] == '+' && digits[1] != '-') digits.remove_prefix(1);
-    double value = 0;
     const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
-    if (error == std::errc::result_out_of_range) fail(line, "number " + quoted(token) + " is out of range");
-    if (error != std::errc() || end != digits.data() + digits.size()) fail(line, quoted(token) + " is not a number");
-    if (!std::isfinite(value)) fail(line, "value " + quoted(token) + " is not finite");
+    if (error == std::errc::result_out_of_range) return "number " + quoted(token) + " is out of range";
+    if (error != std::errc() || end != digits.data() + digits.size()) return quoted(token) + " is not a number";
+    if (!std::isfinite(value)) return "value " + quoted(token) + " is not finite";
+    return "";
+  }
+
+  double to_number(std::string_view token, int line) const {
+    double value = 0;
+    if (const std::string problem = parse_number(token, value); !problem.empty()) fail(line, problem);
     return value;
+  }
+
+  // A number of a frame line; a bad one is named by its frame and channel as well as its line, since
+  // a person finds a frame in an animation tool rather than a line in the file.
+  double frame_number(std::string_view token, int line, int frame, std::size_t channel) const {
+    double value = 0;
+    const std::string problem = parse_number(token, value);
+    if (problem.empty()) return value;
+    std::string where = "frame " + std::to_string(frame) + ", channel " + std::to_string(channel);
+    for (const Joint& joint : joints_) {
+      const std::size_t first = static_cast<std::size_t>(joint.first_channel);
+      if (channel >= first && channel < first + joint.channels.size()) {
+        const Channel& c = joint.channels[channel - first];
+        where += std::string(" (") + joint.name + " " + char('X' + c.axis) + (c.rotation ? "rotation)" : "position)");
+      }
+    }
+    fail(line, where + ": " + problem);
   }
 
   double next_number(const char* what) {
@@ -357,7 +379,8 @@ class BvhParser {
           fail(line, "frame " + std::to_string(frame) + " has more than " + std::to_string(channels) +
                          " numbers (the hierarchy declares " + std::to_string(channels) + " channels)");
         }
-        values[count++] = to_number(token, line);
+        values[count] = frame_number(token, line, frame, count);
+        ++count;
       }
       if (count == 0) {
         if (p == end) {

@@ -19,6 +19,7 @@
 #include <iterator>
 #include <limits>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
 
@@ -42,6 +43,8 @@ constexpr double kMaxShear = 1e-4;
 constexpr double kRestMatchTolerance = 1e-6;
 // An accessor without a buffer view is all zeros: the file does not back its size, so cap it.
 constexpr std::size_t kMaxUnbackedElements = std::size_t(1) << 26;
+// The exported camera's near plane, metres (see the header).
+constexpr double kCameraNear = 0.01;
 constexpr std::uint32_t kGlbMagic = 0x46546C67;      // "glTF"
 constexpr std::uint32_t kGlbJsonChunk = 0x4E4F534A;  // "JSON"
 // GLB lengths are 32-bit; leave room for the header and the JSON chunk.
@@ -215,12 +218,46 @@ class AnimatedGlbBuilder {
     tinygltf::TinyGLTF writer;
     if (!writer.WriteGltfSceneToStream(&model_, glb, false, true)) fail("tinygltf could not serialise the animated GLB");
     std::string bytes = std::move(glb).str();
+    if (!model_.cameras.empty()) bytes = without_zero_zfar(bytes);
     if (bytes.size() > kMaxGlbBytes) throw InputError(path_, "the animated GLB would exceed GLB's 4 GiB limit");
     return bytes;
   }
 
  private:
   [[noreturn]] void fail(const std::string& problem) const { throw InputError(path_, problem); }
+
+  // tinygltf writes a perspective camera's zfar even when it is 0, its value for "absent", but
+  // glTF requires a present zfar to be positive and reads an absent one as an infinite
+  // projection. The GLB's JSON chunk (bytes 20 on, after the 12-byte header and its own 8-byte
+  // chunk header) is rewritten without those zeros, padded with spaces to 4 bytes as GLB
+  // requires; the binary chunk after it is copied as it is.
+  std::string without_zero_zfar(const std::string& glb) const {
+    const auto u32 = [&](std::size_t at) {
+      std::uint32_t value;
+      std::memcpy(&value, glb.data() + at, 4);
+      return value;
+    };
+    const std::size_t json_end = 20 + std::size_t(u32(12));
+    nlohmann::json document = nlohmann::json::parse(glb.begin() + 20, glb.begin() + json_end, nullptr, false);
+    if (document.is_discarded()) fail("tinygltf wrote a GLB whose JSON chunk does not parse");
+    if (const auto cameras = document.find("cameras"); cameras != document.end()) {
+      for (nlohmann::json& camera : *cameras) {
+        const auto perspective = camera.find("perspective");
+        if (perspective != camera.end() && perspective->value("zfar", 1.0) == 0) perspective->erase("zfar");
+      }
+    }
+    std::string json = document.dump();
+    json.resize((json.size() + 3) / 4 * 4, ' ');
+    const std::uint32_t json_length = static_cast<std::uint32_t>(json.size());
+    const std::uint32_t length = static_cast<std::uint32_t>(12 + 8 + json.size() + (glb.size() - json_end));
+    std::string out = glb.substr(0, 8);
+    out.append(reinterpret_cast<const char*>(&length), 4);
+    out.append(reinterpret_cast<const char*>(&json_length), 4);
+    out.append(glb, 16, 4);  // the chunk type, "JSON"
+    out += json;
+    out.append(glb, json_end);
+    return out;
+  }
 
   int node_count() const { return static_cast<int>(model_.nodes.size()); }
 
@@ -489,7 +526,62 @@ class AnimatedGlbBuilder {
                   add_sampler(animation, time_accessor, stage_float_accessor(translations, TINYGLTF_TYPE_VEC3, 0)),
                   map.node, "translation");
     }
+    if (options_.camera) add_camera(animation, time_accessor);
     model_.animations.push_back(std::move(animation));
+  }
+
+  // The camera path's node, its perspective camera and its two channels (maths in the header):
+  // rotation Rg = C^-1 R_cv^T D, translation C^-1 c, frame 0's intrinsics.
+  void add_camera(tinygltf::Animation& animation, int time_accessor) {
+    const CameraPath& path = *options_.camera;
+    const PinholeIntrinsics& k = path.intrinsics.front();
+    tinygltf::Camera camera;
+    camera.name = options_.camera_name;
+    camera.type = "perspective";
+    camera.perspective.yfov = 2 * std::atan(k.height / (2 * k.fy));
+    camera.perspective.aspectRatio = double(k.width) / k.height;
+    camera.perspective.znear = kCameraNear;
+    camera.perspective.zfar = 0;  // absent: infinite (dropped from the JSON, see without_zero_zfar)
+    model_.cameras.push_back(camera);
+
+    const Eigen::Matrix3d c_inverse = y_up_to_z_up().transpose();
+    const Eigen::Matrix3d d = Eigen::Vector3d(1, -1, -1).asDiagonal();
+    const int frames = path.frame_count();
+    std::vector<float> translations(std::size_t(frames) * 3), rotations(std::size_t(frames) * 4);
+    std::vector<double> first_translation, first_rotation;
+    Eigen::Quaterniond previous = Eigen::Quaterniond::Identity();  // any sign will do for frame 0
+    for (int f = 0; f < frames; ++f) {
+      const CameraPose& pose = path.poses[f];
+      const Eigen::Vector3d u = c_inverse * pose.centre();
+      const Eigen::Quaterniond q =
+          sign_aligned(quaternion_from_matrix(c_inverse * pose.rotation.transpose() * d), previous);
+      previous = q;
+      const std::array<double, 4> xyzw = {q.x(), q.y(), q.z(), q.w()};
+      for (int c = 0; c < 3; ++c) translations[std::size_t(f) * 3 + c] = static_cast<float>(u(c));
+      for (int c = 0; c < 4; ++c) rotations[std::size_t(f) * 4 + c] = static_cast<float>(xyzw[c]);
+      if (f == 0) {
+        first_translation = {u.x(), u.y(), u.z()};
+        first_rotation = {xyzw.begin(), xyzw.end()};
+      }
+    }
+
+    tinygltf::Node node;
+    node.name = options_.camera_name;
+    node.camera = static_cast<int>(model_.cameras.size()) - 1;
+    node.translation = first_translation;
+    node.rotation = first_rotation;
+    model_.nodes.push_back(node);
+    const int camera_node = node_count() - 1;
+    // The scene load_character() displays; without scenes every root node is shown already.
+    if (!model_.scenes.empty()) {
+      const int scene = model_.defaultScene >= 0 ? model_.defaultScene : 0;
+      check_index(scene, model_.scenes.size(), "the default scene", "scene");
+      model_.scenes[scene].nodes.push_back(camera_node);
+    }
+    add_channel(animation, add_sampler(animation, time_accessor, stage_float_accessor(translations, TINYGLTF_TYPE_VEC3, 0)),
+                camera_node, "translation");
+    add_channel(animation, add_sampler(animation, time_accessor, stage_float_accessor(rotations, TINYGLTF_TYPE_VEC4, 0)),
+                camera_node, "rotation");
   }
 
   // An accessor's numbers, `components` a element, with its sparse substitutions applied; every
@@ -841,6 +933,29 @@ void check_clip_fits_character(const Character& character, const Clip& clip) {
   }
 }
 
+// The camera path must have one pose per clip frame at the clip's rate, and one set of
+// intrinsics throughout, since core glTF cannot animate a camera's projection.
+void check_camera_fits_clip(const CameraPath& camera, const Clip& clip) {
+  camera.validate();
+  if (camera.frame_count() != clip.frame_count()) {
+    throw std::invalid_argument("the camera path has " + std::to_string(camera.frame_count()) +
+                                " frames but the clip has " + std::to_string(clip.frame_count()));
+  }
+  if (camera.fps != clip.fps) {
+    throw std::invalid_argument("the camera path runs at " + std::to_string(camera.fps) + " fps but the clip at " +
+                                std::to_string(clip.fps));
+  }
+  const PinholeIntrinsics& first = camera.intrinsics.front();
+  for (int f = 1; f < camera.frame_count(); ++f) {
+    const PinholeIntrinsics& k = camera.intrinsics[f];
+    if (k.fx != first.fx || k.fy != first.fy || k.cx != first.cx || k.cy != first.cy || k.width != first.width ||
+        k.height != first.height) {
+      throw std::invalid_argument("camera path frame " + std::to_string(f) +
+                                  " has other intrinsics than frame 0: a glTF camera's projection cannot be animated");
+    }
+  }
+}
+
 // Writes to a temporary name beside `path` and renames it into place when complete; the
 // temporary file is removed on any failure.
 void write_file_atomically(const std::string& path, const std::string& bytes) {
@@ -869,6 +984,7 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
 void write_animated_glb(const std::string& character_path, const Character& character, const Clip& clip,
                         const std::string& out_path, const GlbExportOptions& options) {
   check_clip_fits_character(character, clip);
+  if (options.camera) check_camera_fits_clip(*options.camera, clip);
   const std::string glb = AnimatedGlbBuilder(character_path, character, clip, options).build();
   write_file_atomically(out_path, glb);
 }

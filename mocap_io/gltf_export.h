@@ -1,5 +1,6 @@
 // Animated GLB out: the character's own glTF file (meshes, materials, textures, skins, node
-// hierarchy, loaded again with tinygltf) plus one animation that plays a Clip on its nodes.
+// hierarchy, loaded again with tinygltf) plus one animation that plays a Clip on its nodes and,
+// optionally, a camera path on a camera node of its own.
 //
 // What the written file holds. Every node keeps its index, name, children and static
 // properties, so Character::source_node_of_joint indexes the written file too. The file's
@@ -61,16 +62,48 @@
 //   rotation of n reproduces a rotated rigid frame, and the file is rejected.
 // At rest (Q_j = Qr_j, o_j = or_j) every formula returns the node's own r_n and u_n.
 //
+// The camera (options.camera set). The file gains one root node, named options.camera_name,
+// carrying a perspective camera of that name; it is appended after the existing nodes (whose
+// indices stay) and listed in the displayed scene's root nodes: the default scene, else the
+// first, as load_character() reads them (a file without scenes shows every root node, this one
+// too). The animation gains a translation and a rotation channel on it, LINEAR on the clip's time
+// accessor, so camera frame f is shown at f / fps with clip frame f. The node's static
+// translation and rotation are frame 0's, for viewers that do not play the animation.
+//   Axes: a glTF camera looks along its local -Z with +Y up and +X right; an OpenCV camera looks
+// along +z with y down. The node's local axes in the camera's OpenCV axes are therefore
+//     X_gl = x_cv,  Y_gl = -y_cv,  Z_gl = -z_cv,   i.e. p_cv = D p_gl,  D = diag(1, -1, -1)
+// (a proper rotation: half a turn about x). A camera point goes to the toolkit's Z-up world by
+// x_world = R_cv^T (p_cv - t) = R_cv^T p_cv + c (R_cv = pose.rotation, world -> camera;
+// c = -R_cv^T t = pose.centre()), and the toolkit's world to glTF's Y-up world by C^-1 = C^T. The
+// node is a root, so its local transform is its world one:
+//     rotation  Rg = C^-1 R_cv^T D,   translation  ug = C^-1 c.
+// Check: the node's viewing axis -Z, taken to the toolkit world, is C Rg (0,0,-1) = R_cv^T (0,0,1)
+// = pose.forward(), and its up axis +Y is C Rg (0,1,0) = R_cv^T (0,-1,0) = -pose.down().
+// Rotation samples are sign-aligned to the previous sample, as the joints' are.
+//   Projection: glTF's perspective camera has a centred principal point and square pixels, so it
+// carries the vertical field of view and the image shape:
+//     yfov = 2 atan(height / (2 fy)),   aspectRatio = width / height,
+// znear = 0.01 m (glTF requires a near plane; 1 cm is closer than anything the toolkit's camera
+// rigs frame) and no zfar, which glTF reads as an infinite projection. K's cx, cy and fx are not
+// carried: off-centre principal points and non-square pixels are rendered as the ideal camera.
+// Core glTF cannot animate camera properties (that needs KHR_animation_pointer), so the camera
+// has frame 0's intrinsics, and a path whose intrinsics (K or image size) change is rejected.
+// tinygltf writes zfar = 0, its value for "absent", which glTF forbids; the written JSON drops
+// a zero zfar from every perspective camera (the source file's cameras included).
+//
 // Errors. A clip that does not belong to the character's skeleton (joint count, names, parents)
-// or is invalid throws std::invalid_argument; a character that does not come from the file
-// (its joints' nodes or rest positions disagree with it), a file that cannot be read or carried
-// over, or an output that cannot be written throws InputError naming the file. Everything is
+// or is invalid throws std::invalid_argument, and so does a camera path that does not validate
+// (CameraPath::validate), has another frame count or fps than the clip, or changes its
+// intrinsics; a character that does not come from the file (its joints' nodes or rest positions
+// disagree with it), a file that cannot be read or carried over, or an output that cannot be
+// written throws InputError naming the file. Everything is
 // built in memory first and written to a temporary file beside out_path that is renamed onto it
 // when complete: on any failure nothing appears at out_path (an existing file there stays).
 #pragma once
 
 #include <string>
 
+#include "skeleton/camera.h"
 #include "skeleton/character.h"
 #include "skeleton/clip.h"
 
@@ -78,6 +111,10 @@ namespace odyssey::io {
 
 struct GlbExportOptions {
   std::string animation_name = "motion";
+  // A camera to animate alongside the clip, one pose per clip frame at the clip's fps (see "The
+  // camera" above); not owned, and read only during the call. nullptr: no camera.
+  const CameraPath* camera = nullptr;
+  std::string camera_name = "camera";  // the camera node's and the camera's name
 };
 
 // Writes out_path (a GLB) from the glTF/GLB at character_path, which `character` was loaded from

@@ -197,9 +197,48 @@ TEST(RetargetCliTest, BalancedQualityRefines) {
   ASSERT_EQ(result.exit_code, 0) << result.output;
   const nlohmann::json report = nlohmann::json::parse(read_text(report_path));
   EXPECT_EQ(report["quality"], "balanced");
-  EXPECT_EQ(report["settings"]["refine_threads"], 2);
+  EXPECT_EQ(report["settings"]["refine"]["threads"], 2);
+  // Every refinement weight is in the report, at the documented defaults.
+  EXPECT_EQ(report["settings"]["refine"]["weights"]["foot_contact"], 30.0);
+  EXPECT_EQ(report["settings"]["refine"]["weights"]["pose"], 0.05);
+  EXPECT_EQ(report["settings"]["refine"]["weights"].size(), 8u);
   EXPECT_GT(report["refine"]["frames"].get<int>(), 0);
   EXPECT_LT(report["metrics"]["result"]["bone_direction_deg"]["mean"].get<double>(), 2.0);
+  if (const std::string missing = validator_missing(); !missing.empty()) GTEST_SKIP() << missing;
+  expect_zero_validator_errors(out);
+}
+
+TEST(RetargetCliTest, WeightsOverrideTheDefaultsAndBadOnesAreUsageErrors) {
+  const fs::path out = scratch("weights.glb"), report_path = scratch("weights.json");
+  const std::string base = "retarget --motion " + kWalkBvh + " --bvh-units cmu --character " +
+                           character_path("RiggedFigure.glb") + " --quality balanced --out " + out.string() +
+                           " --report " + report_path.string();
+  const Result result = run(base + " --weights foot_contact=50,pose=0.1");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  const nlohmann::json report = nlohmann::json::parse(read_text(report_path));
+  EXPECT_EQ(report["settings"]["refine"]["weights"]["foot_contact"], 50.0);
+  EXPECT_EQ(report["settings"]["refine"]["weights"]["pose"], 0.1);
+  EXPECT_EQ(report["settings"]["refine"]["weights"]["floor"], 30.0);
+  fs::remove(out);
+  fs::remove(report_path);
+  for (const char* bad : {" --weights stiffness=1", " --weights pose=-1", " --weights pose", " --weights pose=1x"}) {
+    const Result rejected = run(base + bad);
+    EXPECT_EQ(rejected.exit_code, 2) << bad << "\n" << rejected.output;
+    EXPECT_TRUE(contains(rejected.output, "--weights")) << rejected.output;
+    EXPECT_FALSE(fs::exists(out)) << bad;
+  }
+}
+
+TEST(RetargetCliTest, AnEgoCameraGoesIntoTheGlbAndItsPathFile) {
+  const fs::path out = scratch("ego.glb"), camera = scratch("ego_camera.json");
+  const Result result = run("retarget --motion " + kWalkBvh + " --bvh-units cmu --character " +
+                            character_path("CesiumMan.glb") + " --camera ego --out " + out.string() + " --camera-path " +
+                            camera.string());
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  const nlohmann::json path = nlohmann::json::parse(read_text(camera));
+  EXPECT_EQ(path["kind"], "ego-head");
+  EXPECT_EQ(path["frames"].size(), path["frame_count"].get<std::size_t>());
+  EXPECT_TRUE(contains(read_text(out), "\"cameras\""));
   if (const std::string missing = validator_missing(); !missing.empty()) GTEST_SKIP() << missing;
   expect_zero_validator_errors(out);
 }
@@ -208,7 +247,8 @@ TEST(RetargetCliTest, HelpDocumentsEveryOptionAndDefault) {
   const Result help = run("retarget --help");
   ASSERT_EQ(help.exit_code, 0) << help.output;
   for (const char* option : {"--motion", "--character", "--out", "--quality", "--map", "--source-map", "--model", "--fps",
-                             "--report", "--parts", "--bvh-units", "--source-rest", "--threads"}) {
+                             "--report", "--parts", "--bvh-units", "--source-rest", "--threads", "--weights",
+                             "--camera", "--camera-path", "--hfov"}) {
     EXPECT_TRUE(contains(help.output, option)) << option;
   }
   for (const char* text : {"(default: fast)", "(default: body)", "(default: 30)", "(default: rest)", "(default: cm)",
@@ -270,8 +310,8 @@ TEST(RetargetCliTest, BadMotionFailsNamingTheFileAndTheFrameAndNothingIsWritten)
   EXPECT_TRUE(contains(result.output, "of the 344 frames declared")) << result.output;
   expect_no_output_named("bad_out_cut");
 
-  // A NaN in the 11th frame line of the BVH: the parser names the file and the line (the motion
-  // section starts after the hierarchy, so the line tells the frame).
+  // A NaN in the 11th frame line of the BVH: the parser names the file, the line, the frame and the
+  // channel.
   const std::size_t motion = bvh.find("Frame Time:");
   std::size_t line_start = bvh.find('\n', motion) + 1;
   for (int frame = 0; frame < 10; ++frame) line_start = bvh.find('\n', line_start) + 1;
@@ -282,7 +322,8 @@ TEST(RetargetCliTest, BadMotionFailsNamingTheFileAndTheFrameAndNothingIsWritten)
   const int nan_line = 1 + static_cast<int>(std::count(bvh.begin(), bvh.begin() + line_start, '\n'));
   result = run("retarget --motion " + nan_bvh.string() + character + outputs("bad_out_nan_bvh"));
   EXPECT_EQ(result.exit_code, 1) << result.output;
-  EXPECT_TRUE(contains(result.output, nan_bvh.string() + ": line " + std::to_string(nan_line) + ": value 'nan' is not finite"))
+  EXPECT_TRUE(contains(result.output, nan_bvh.string() + ": line " + std::to_string(nan_line) + ": frame 10, channel 0 (") &&
+              contains(result.output, "position): value 'nan' is not finite"))
       << result.output;
   expect_no_output_named("bad_out_nan_bvh");
 

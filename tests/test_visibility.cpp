@@ -1,0 +1,457 @@
+// DepthBuffer: exact depths of frontal and slanted planes (perspective-correct, watertight along a
+// shared diagonal, both windings), one square hiding another, the relative tolerance at its
+// boundary, closed meshes (a sphere and a cube, frontal and oblique) whose front points are all
+// visible and whose back points are hidden, a steep slant where the 2x2 rule is needed, triangles
+// crossing the near plane, points outside the image or behind the camera, and error cases.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numbers>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "scene_layouts/visibility.h"
+#include "skeleton/camera.h"
+
+using odyssey::CameraPose;
+using odyssey::intrinsics_from_hfov;
+using odyssey::PinholeIntrinsics;
+using odyssey::PixelProjection;
+using odyssey::project;
+using odyssey::scene::DepthBuffer;
+using Eigen::Vector3d;
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kTolerance = DepthBuffer::kRelativeDepthTolerance;
+
+// The dataset's default camera: 960x540, 60 degrees across, f = 480 / tan(30 deg) = 831.4 px.
+const PinholeIntrinsics kCamera = intrinsics_from_hfov(960, 540, 60);
+
+struct Mesh {
+  std::vector<float> positions;
+  std::vector<std::uint32_t> triangles;
+
+  std::uint32_t add(const Vector3d& p) {
+    for (int k = 0; k < 3; ++k) positions.push_back(static_cast<float>(p[k]));
+    return static_cast<std::uint32_t>(positions.size() / 3 - 1);
+  }
+  // As the rasteriser sees it: the float32 position, back in double.
+  Vector3d vertex(std::uint32_t i) const { return {positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]}; }
+  void add_triangle(std::uint32_t a, std::uint32_t b, std::uint32_t c) { triangles.insert(triangles.end(), {a, b, c}); }
+  // Corners in order around the quadrilateral; split along the diagonal 0-2.
+  void add_quad(const Vector3d& a, const Vector3d& b, const Vector3d& c, const Vector3d& d) {
+    const std::uint32_t i = add(a), j = add(b), k = add(c), l = add(d);
+    add_triangle(i, j, k);
+    add_triangle(i, k, l);
+  }
+};
+
+// The world point that identity camera pose projects to pixel (u, v) at depth z.
+Vector3d unproject(double u, double v, double z) {
+  return {(u - kCamera.cx) / kCamera.fx * z, (v - kCamera.cy) / kCamera.fy * z, z};
+}
+
+// A frontal square at depth z covering the screen rectangle [u0, u1] x [v0, v1] (identity pose).
+Mesh frontal_square(double u0, double v0, double u1, double v1, double z) {
+  Mesh mesh;
+  mesh.add_quad(unproject(u0, v0, z), unproject(u1, v0, z), unproject(u1, v1, z), unproject(u0, v1, z));
+  return mesh;
+}
+
+Mesh merged(const Mesh& a, const Mesh& b) {
+  Mesh mesh = a;
+  const auto offset = static_cast<std::uint32_t>(a.positions.size() / 3);
+  mesh.positions.insert(mesh.positions.end(), b.positions.begin(), b.positions.end());
+  for (const std::uint32_t i : b.triangles) mesh.triangles.push_back(i + offset);
+  return mesh;
+}
+
+DepthBuffer rendered(const Mesh& mesh, const CameraPose& pose = {}) {
+  DepthBuffer buffer(kCamera.width, kCamera.height);
+  buffer.render(pose, kCamera, mesh.positions, mesh.triangles);
+  return buffer;
+}
+
+bool visible_point(const DepthBuffer& buffer, const CameraPose& pose, const Vector3d& world) {
+  const PixelProjection p = project(pose, kCamera, world);
+  return buffer.visible(p.u, p.v, p.depth);
+}
+
+template <class E, class F>
+std::string message_of(F&& operation) {
+  try {
+    operation();
+  } catch (const E& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no exception of the expected type";
+  return {};
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+// A frontal square whose corners sit on pixel corners (100, 100) and (300, 300), so its diagonal
+// u = v runs exactly through the centres (i + 0.5, i + 0.5): the two triangles must share them
+// without a gap. Every centre inside reads d (float 1/z: within a few 1e-8), every other +inf, and
+// the reversed winding draws the same.
+TEST(DepthBuffer, FrontalPlaneReadsItsDepthEverywhereItCovers) {
+  const double d = 2.7;
+  Mesh mesh = frontal_square(100, 100, 300, 300, d);
+  for (const bool reversed : {false, true}) {
+    if (reversed) {
+      for (std::size_t t = 0; t < mesh.triangles.size(); t += 3) std::swap(mesh.triangles[t + 1], mesh.triangles[t + 2]);
+    }
+    const DepthBuffer buffer = rendered(mesh);
+    int covered = 0, wrong = 0;
+    for (int y = 0; y < kCamera.height; ++y) {
+      for (int x = 0; x < kCamera.width; ++x) {
+        const bool inside = x >= 100 && x < 300 && y >= 100 && y < 300;
+        const double z = buffer.depth(x, y);
+        covered += inside;
+        wrong += inside ? !(std::abs(z - d) <= 1e-5 * d) : z != kInf;
+      }
+    }
+    EXPECT_EQ(covered, 200 * 200);
+    EXPECT_EQ(wrong, 0) << (reversed ? "reversed winding" : "original winding");
+    EXPECT_NEAR(buffer.depth(150, 150), d, 1e-5 * d);  // on the diagonal
+    EXPECT_NEAR(buffer.depth(299, 100), d, 1e-5 * d);  // the far corners of each triangle
+    EXPECT_NEAR(buffer.depth(100, 299), d, 1e-5 * d);
+  }
+}
+
+// A plane slanted 60 degrees about the camera's y axis, n = (sin 60, 0, -cos 60), through (0, 0, 3):
+// along the ray through pixel (u, v), direction r = ((u - cx)/fx, (v - cy)/fy, 1), it is met at
+// z = (n . p0) / (n . r). Linear interpolation of z instead of 1/z would be off by percents here.
+TEST(DepthBuffer, SlantedPlaneDepthIsPerspectiveCorrect) {
+  const double angle = 60 * std::numbers::pi / 180;
+  const Vector3d normal(std::sin(angle), 0, -std::cos(angle)), p0(0, 0, 3);
+  const Vector3d along(std::cos(angle), 0, std::sin(angle)), down(0, 1, 0);  // in the plane
+  Mesh mesh;
+  mesh.add_quad(p0 - 2 * along - down, p0 + 2 * along - down, p0 + 2 * along + down, p0 - 2 * along + down);
+  const DepthBuffer buffer = rendered(mesh);
+  int checked = 0, wrong = 0;
+  double nearest = kInf, farthest = 0;
+  for (int y = 0; y < kCamera.height; ++y) {
+    for (int x = 0; x < kCamera.width; ++x) {
+      const double z = buffer.depth(x, y);
+      if (z == kInf) continue;
+      const Vector3d ray((x + 0.5 - kCamera.cx) / kCamera.fx, (y + 0.5 - kCamera.cy) / kCamera.fy, 1);
+      const double expected = normal.dot(p0) / normal.dot(ray);
+      wrong += !(std::abs(z - expected) <= 1e-5 * expected);
+      ++checked;
+      nearest = std::min(nearest, z);
+      farthest = std::max(farthest, z);
+    }
+  }
+  EXPECT_GT(checked, 50000);
+  EXPECT_EQ(wrong, 0);
+  EXPECT_GT(farthest / nearest, 3);  // a real slant: from z = 1.5 at the left edge to 4.7 at the quad's end
+}
+
+// A near square at z = 2 over [300, 500] x [150, 350] in front of a far square at z = 4 over
+// [100, 800] x [50, 450]. Far points whose pixel lies more than a pixel inside the near square are
+// hidden, those more than a pixel outside it visible; every point of the near square is visible.
+TEST(DepthBuffer, SquareHidesTheSquareBehindIt) {
+  const Mesh near = frontal_square(300, 150, 500, 350, 2);
+  const DepthBuffer buffer = rendered(merged(near, frontal_square(100, 50, 800, 450, 4)));
+  int hidden_checked = 0, visible_checked = 0, near_checked = 0;
+  for (double u = 100.25; u < 800; u += 1.5) {
+    for (double v = 50.25; v < 450; v += 1.5) {
+      const bool inside = u > 301 && u < 499 && v > 151 && v < 349;
+      const bool outside = u < 299 || u > 501 || v < 149 || v > 351;
+      const bool far_visible = buffer.visible(u, v, 4);
+      if (inside) {
+        EXPECT_FALSE(far_visible) << u << ", " << v;
+        ++hidden_checked;
+      } else if (outside) {
+        EXPECT_TRUE(far_visible) << u << ", " << v;
+        ++visible_checked;
+      }
+      if (u >= 300 && u <= 500 && v >= 150 && v <= 350) {
+        // The point of the near square at this pixel, projected as the exporter does.
+        EXPECT_TRUE(visible_point(buffer, {}, unproject(u, v, 2))) << u << ", " << v;
+        ++near_checked;
+      }
+    }
+  }
+  EXPECT_GT(hidden_checked, 15000);
+  EXPECT_GT(visible_checked, 90000);
+  EXPECT_GT(near_checked, 15000);
+}
+
+// The tolerance, relative: behind a frontal plane at depth d, a point at d (1 + 0.5e-3) still
+// counts as visible, one at d (1 + 2e-3) is hidden, at any depth.
+TEST(DepthBuffer, RelativeToleranceDecidesNearlyCoincidentSurfaces) {
+  for (const double d : {0.05, 2.0, 40.0}) {
+    const DepthBuffer buffer = rendered(frontal_square(200, 100, 700, 400, d));
+    // Points whose four nearest centres all lie on the square.
+    for (const double u : {200.6, 333.3, 699.4}) {
+      EXPECT_TRUE(buffer.visible(u, 250, d)) << d;
+      EXPECT_TRUE(buffer.visible(u, 250, d * (1 + 0.5 * kTolerance))) << d;
+      EXPECT_FALSE(buffer.visible(u, 250, d * (1 + 2 * kTolerance))) << d;
+    }
+  }
+}
+
+// Dense points on a closed mesh: every point on a face turned towards the camera must be visible
+// (no false hides, at any slant); `hidden_expected` says which of the others must be hidden.
+struct SurfaceCounts {
+  int front = 0, front_hidden = 0, back_checked = 0, back_visible = 0;
+};
+
+// A UV sphere (poles as single vertices), outward normals from the centre.
+Mesh sphere(const Vector3d& centre, double radius, int rings, int segments) {
+  Mesh mesh;
+  auto at = [&](double theta, double phi) {
+    Vector3d p = centre;
+    p.x() += radius * std::sin(theta) * std::cos(phi);
+    p.y() += radius * std::sin(theta) * std::sin(phi);
+    p.z() += radius * std::cos(theta);
+    return p;
+  };
+  const std::uint32_t top = mesh.add(centre + Vector3d(0, 0, radius));
+  for (int r = 1; r < rings; ++r) {
+    for (int s = 0; s < segments; ++s) mesh.add(at(std::numbers::pi * r / rings, 2 * std::numbers::pi * s / segments));
+  }
+  const std::uint32_t bottom = mesh.add(centre - Vector3d(0, 0, radius));
+  auto ring_vertex = [&](int r, int s) { return static_cast<std::uint32_t>(1 + (r - 1) * segments + s % segments); };
+  for (int s = 0; s < segments; ++s) {
+    mesh.add_triangle(top, ring_vertex(1, s), ring_vertex(1, s + 1));
+    mesh.add_triangle(bottom, ring_vertex(rings - 1, s + 1), ring_vertex(rings - 1, s));
+    for (int r = 1; r + 1 < rings; ++r) {
+      mesh.add_triangle(ring_vertex(r, s), ring_vertex(r + 1, s), ring_vertex(r + 1, s + 1));
+      mesh.add_triangle(ring_vertex(r, s), ring_vertex(r + 1, s + 1), ring_vertex(r, s + 1));
+    }
+  }
+  return mesh;
+}
+
+// Points on every triangle at barycentric (a, b, n - a - b) / n, vertices and edges included, as
+// the exporter samples them (float vertices, double arithmetic). A face is in front when its
+// outward normal m (oriented away from `centre`) has m . (camera - p) > 0; a back point with
+// m^ . (camera - p)^ < -0.3 lies on a ray that crossed the front of the sphere at least
+// 2 r 0.3 earlier and more than a pixel inside its outline, so it must be hidden.
+TEST(DepthBuffer, SphereShowsItsFrontAndHidesItsBack) {
+  const Vector3d centre(0.2, 0.1, 1.0);
+  const Mesh mesh = sphere(centre, 0.5, 32, 64);
+  const CameraPose pose = CameraPose::look_at(Vector3d(3, -1, 1.6), centre);
+  const DepthBuffer buffer = rendered(mesh, pose);
+  const Vector3d camera = pose.centre();
+  SurfaceCounts counts;
+  double most_grazing = 1;
+  const int n = 6;
+  for (std::size_t t = 0; t < mesh.triangles.size(); t += 3) {
+    const Vector3d a = mesh.vertex(mesh.triangles[t]), b = mesh.vertex(mesh.triangles[t + 1]),
+                   c = mesh.vertex(mesh.triangles[t + 2]);
+    Vector3d normal = (b - a).cross(c - a).normalized();
+    if (normal.dot((a + b + c) / 3 - centre) < 0) normal = -normal;
+    for (int i = 0; i <= n; ++i) {
+      for (int j = 0; i + j <= n; ++j) {
+        const Vector3d p = (i * a + j * b + (n - i - j) * c) / n;
+        const double facing = normal.dot((camera - p).normalized());
+        const bool shown = visible_point(buffer, pose, p);
+        if (facing > 0) {
+          ++counts.front;
+          counts.front_hidden += !shown;
+          most_grazing = std::min(most_grazing, facing);
+        } else if (facing < -0.3) {
+          ++counts.back_checked;
+          counts.back_visible += shown;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(counts.front_hidden, 0) << "of " << counts.front << " front points";
+  EXPECT_EQ(counts.back_visible, 0) << "of " << counts.back_checked << " back points";
+  EXPECT_GT(counts.front, 40000);
+  EXPECT_GT(counts.back_checked, 40000);
+  EXPECT_LT(most_grazing, 0.02);  // the front set reaches grazing slants at the outline
+}
+
+// A unit cube's six faces, each sampled on a (2m + 1)^2 grid over the whole face (edges and corners
+// included) for faces towards the camera, and over the inner 80% for the others: those project
+// inside the outline of the front faces and lie behind them, so they must be hidden.
+SurfaceCounts cube_counts(const CameraPose& pose) {
+  Mesh mesh;
+  std::vector<std::array<Vector3d, 3>> faces;  // centre, two half-edge vectors
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const double side : {-0.5, 0.5}) {
+      Vector3d c = Vector3d::Zero(), e1 = Vector3d::Zero(), e2 = Vector3d::Zero();
+      c[axis] = side;
+      e1[(axis + 1) % 3] = 0.5;
+      e2[(axis + 2) % 3] = 0.5;
+      mesh.add_quad(c - e1 - e2, c + e1 - e2, c + e1 + e2, c - e1 + e2);
+      faces.push_back({c, e1, e2});
+    }
+  }
+  const DepthBuffer buffer = rendered(mesh, pose);
+  SurfaceCounts counts;
+  const int m = 60;
+  for (const auto& [c, e1, e2] : faces) {
+    const bool front = c.dot(pose.centre() - c) > 0;  // the outward normal is c / |c|
+    for (int i = -m; i <= m; ++i) {
+      for (int j = -m; j <= m; ++j) {
+        const double s = double(i) / m, t = double(j) / m;
+        const Vector3d p = c + s * e1 + t * e2;
+        if (front) {
+          ++counts.front;
+          counts.front_hidden += !visible_point(buffer, pose, p);
+        } else if (std::abs(s) <= 0.8 && std::abs(t) <= 0.8) {
+          ++counts.back_checked;
+          counts.back_visible += visible_point(buffer, pose, p);
+        }
+      }
+    }
+  }
+  return counts;
+}
+
+TEST(DepthBuffer, CubeSeenFaceOnShowsItsFrontFace) {
+  // Straight at the face x = +0.5 from 2.5 m: one frontal face; the four side faces are seen
+  // from behind (just), the face x = -0.5 from behind.
+  const SurfaceCounts counts = cube_counts(CameraPose::look_at(Vector3d(3, 0, 0), Vector3d::Zero()));
+  EXPECT_EQ(counts.front, 121 * 121);
+  EXPECT_EQ(counts.front_hidden, 0);
+  EXPECT_EQ(counts.back_checked, 5 * 97 * 97);
+  EXPECT_EQ(counts.back_visible, 0);
+}
+
+TEST(DepthBuffer, CubeSeenObliquelyShowsItsThreeFrontFaces) {
+  // From (2.1, 1.3, 1.7): faces x+, y+, z+ in front, at three different slants.
+  const SurfaceCounts counts = cube_counts(CameraPose::look_at(Vector3d(2.1, 1.3, 1.7), Vector3d(0.05, -0.02, 0.1)));
+  EXPECT_EQ(counts.front, 3 * 121 * 121);
+  EXPECT_EQ(counts.front_hidden, 0);
+  EXPECT_EQ(counts.back_checked, 3 * 97 * 97);
+  EXPECT_EQ(counts.back_visible, 0);
+}
+
+// On a plane slanted 85 degrees from frontal, depth changes by z tan(85 deg) / f, about 1.4% of z,
+// per pixel: comparing a point with its nearest centre alone would hide many points of the surface
+// they lie on; the largest depth of the 2x2 centres hides none.
+TEST(DepthBuffer, SteepSlantNeedsTheLargestOfFourCentres) {
+  const double angle = 85 * std::numbers::pi / 180;
+  const Vector3d p0(0, 0, 3), along(std::cos(angle), 0, std::sin(angle)), down(0, 1, 0);
+  Mesh mesh;
+  mesh.add_quad(p0 - 2 * along - down, p0 + 2 * along - down, p0 + 2 * along + down, p0 - 2 * along + down);
+  const DepthBuffer buffer = rendered(mesh);
+  int points = 0, hidden = 0, hidden_by_nearest_centre = 0;
+  for (double s = -2; s <= 2; s += 0.001) {
+    for (double t = -1; t <= 1; t += 0.05) {
+      const PixelProjection p = project({}, kCamera, p0 + s * along + t * down);
+      if (!p.valid) continue;
+      ++points;
+      hidden += !buffer.visible(p.u, p.v, p.depth);
+      const double nearest = buffer.depth(static_cast<int>(p.u), static_cast<int>(p.v));
+      hidden_by_nearest_centre += p.depth > (1 + kTolerance) * nearest;
+    }
+  }
+  EXPECT_GT(points, 50000);
+  EXPECT_EQ(hidden, 0);
+  EXPECT_GT(hidden_by_nearest_centre, points / 4);
+}
+
+// The plane z = 2 + x (camera coordinates) over x, y in [-3, 3] reaches behind the camera (z = -1
+// at x = -3): one of its triangles has one corner behind, the other two. Clipped at the near plane,
+// it still covers the whole image at depth z = 2 / (1 - r_x) along the ray r = (r_x, r_y, 1), and
+// hides a wall at z = 10 where it is nearer; a triangle wholly behind the camera draws nothing.
+TEST(DepthBuffer, TrianglesCrossingTheNearPlaneStillOcclude) {
+  Mesh plane;
+  plane.add_quad(Vector3d(-3, -3, -1), Vector3d(3, -3, 5), Vector3d(3, 3, 5), Vector3d(-3, 3, -1));
+  Mesh behind;
+  behind.add_quad(Vector3d(-3, -3, -2), Vector3d(3, -3, -2), Vector3d(3, 3, -0.5), Vector3d(-3, 3, -0.5));
+  const DepthBuffer buffer = rendered(merged(merged(plane, behind), frontal_square(0, 0, 960, 540, 10)));
+  int wrong_depth = 0, wall_hidden = 0, wall_checked = 0;
+  for (int y = 0; y < kCamera.height; ++y) {
+    for (int x = 0; x < kCamera.width; ++x) {
+      // Where the ray meets the plane: |x| <= 2.8 and |y| = |r_y| z <= 0.33 * 4.8 < 3, inside the quad.
+      const double rx = (x + 0.5 - kCamera.cx) / kCamera.fx;
+      const double z = 2 / (1 - rx);
+      wrong_depth += !(std::abs(buffer.depth(x, y) - z) <= 1e-5 * z);
+      // A wall point at this pixel centre is hidden (the plane is nearer than 10 everywhere here:
+      // r_x < 0.58 gives z < 4.8).
+      ++wall_checked;
+      wall_hidden += !buffer.visible(x + 0.5, y + 0.5, 10);
+    }
+  }
+  EXPECT_EQ(wrong_depth, 0);
+  EXPECT_EQ(wall_hidden, wall_checked);
+  // At the left edge the plane is met at z = 2 / (1 + 0.577) = 1.27 by the part whose triangles
+  // cross the near plane.
+  EXPECT_NEAR(buffer.depth(0, 270), 2 / (1 - (0.5 - kCamera.cx) / kCamera.fx), 1e-5);
+}
+
+TEST(DepthBuffer, PointsOutsideTheImageOrBehindTheCameraAreNotVisible) {
+  DepthBuffer buffer(kCamera.width, kCamera.height);
+  buffer.render({}, kCamera, {}, {});
+  const double w = kCamera.width, h = kCamera.height;
+  // An empty buffer hides nothing that is in the image and in front.
+  for (const auto& [u, v] : std::vector<std::pair<double, double>>{{0, 0}, {w - 1e-9, h - 1e-9}, {480, 270}, {0.2, h - 0.2}})
+    EXPECT_TRUE(buffer.visible(u, v, 1)) << u << ", " << v;
+  for (const auto& [u, v] : std::vector<std::pair<double, double>>{{-1e-9, 10}, {w, 10}, {10, -0.5}, {10, h}, {NAN, 10}, {10, NAN}})
+    EXPECT_FALSE(buffer.visible(u, v, 1)) << u << ", " << v;
+  for (const double depth : {0.0, -1.0, kInf, -kInf, double(NAN)}) EXPECT_FALSE(buffer.visible(480, 270, depth)) << depth;
+  EXPECT_EQ(buffer.depth(0, 0), kInf);
+  // A point behind the camera projects invalid (u = v = 0, depth < 0): not visible either.
+  const PixelProjection behind = project({}, kCamera, Vector3d(0.1, 0.1, -2));
+  EXPECT_FALSE(buffer.visible(behind.u, behind.v, behind.depth));
+}
+
+TEST(DepthBuffer, RenderClearsThePreviousFrame) {
+  DepthBuffer buffer(kCamera.width, kCamera.height);
+  const Mesh square = frontal_square(0, 0, 960, 540, 1);
+  buffer.render({}, kCamera, square.positions, square.triangles);
+  EXPECT_NEAR(buffer.depth(5, 5), 1, 1e-6);
+  const Mesh small = frontal_square(0, 0, 10, 10, 3);
+  buffer.render({}, kCamera, small.positions, small.triangles);
+  EXPECT_NEAR(buffer.depth(5, 5), 3, 3e-6);
+  EXPECT_EQ(buffer.depth(20, 20), kInf);
+}
+
+TEST(DepthBuffer, RejectsBadInput) {
+  EXPECT_THROW(DepthBuffer(0, 10), std::invalid_argument);
+  EXPECT_THROW(DepthBuffer(10, 0), std::invalid_argument);
+  EXPECT_THROW(DepthBuffer(-3, 10), std::invalid_argument);
+  EXPECT_THROW(DepthBuffer(1 << 20, 1 << 20), std::invalid_argument);
+  const DepthBuffer one(1, 1);
+  EXPECT_EQ(one.depth(0, 0), kInf);
+
+  DepthBuffer buffer(kCamera.width, kCamera.height);
+  const Mesh square = frontal_square(100, 100, 200, 200, 2);
+  std::string m = message_of<std::invalid_argument>(
+      [&] { buffer.render({}, intrinsics_from_hfov(640, 480, 60), square.positions, square.triangles); });
+  EXPECT_TRUE(contains(m, "640x480") && contains(m, "960x540")) << m;
+  PinholeIntrinsics bad = kCamera;
+  bad.fx = 0;
+  m = message_of<std::invalid_argument>([&] { buffer.render({}, bad, square.positions, square.triangles); });
+  EXPECT_TRUE(contains(m, "fx")) << m;
+  m = message_of<std::invalid_argument>(
+      [&] { buffer.render({}, kCamera, std::span(square.positions).first(11), square.triangles); });
+  EXPECT_TRUE(contains(m, "11 floats")) << m;
+  m = message_of<std::invalid_argument>(
+      [&] { buffer.render({}, kCamera, square.positions, std::span(square.triangles).first(5)); });
+  EXPECT_TRUE(contains(m, "5 indices")) << m;
+  std::vector<std::uint32_t> triangles = square.triangles;
+  triangles[4] = 4;
+  m = message_of<std::invalid_argument>([&] { buffer.render({}, kCamera, square.positions, triangles); });
+  EXPECT_TRUE(contains(m, "triangle 1 names vertex 4 of 4")) << m;
+  std::vector<float> positions = square.positions;
+  positions[7] = std::numeric_limits<float>::quiet_NaN();
+  m = message_of<std::invalid_argument>([&] { buffer.render({}, kCamera, positions, square.triangles); });
+  EXPECT_TRUE(contains(m, "vertex 2 is not finite")) << m;
+  EXPECT_EQ(buffer.depth(150, 150), kInf);  // a rejected render leaves the buffer cleared
+
+  EXPECT_THROW(buffer.depth(-1, 0), std::out_of_range);
+  EXPECT_THROW(buffer.depth(0, 540), std::out_of_range);
+  EXPECT_THROW(buffer.depth(960, 0), std::out_of_range);
+}
+
+}  // namespace
