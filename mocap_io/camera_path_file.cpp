@@ -1,8 +1,5 @@
 #include "mocap_io/camera_path_file.h"
 
-#include <unistd.h>
-
-#include <atomic>
 #include <cerrno>
 #include <climits>
 #include <cstdint>
@@ -14,6 +11,7 @@
 #include <stdexcept>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/output_file.h"
 
 namespace odyssey::io {
 namespace {
@@ -35,29 +33,6 @@ Json rows_of(const Eigen::MatrixXd& matrix) {
     rows.push_back(std::move(row));
   }
   return rows;
-}
-
-// Writes to a temporary name beside `path` and renames it into place when complete, so a reader
-// never sees half a file; the temporary file is removed on any failure.
-void write_file_atomically(const std::string& path, const std::string& text) {
-  static std::atomic<unsigned> counter{0};
-  const std::string temp = path + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
-  std::FILE* file = std::fopen(temp.c_str(), "wb");
-  if (!file) throw InputError(path, "cannot create " + temp + ": " + std::strerror(errno));
-  errno = 0;
-  const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
-  const int write_errno = errno;
-  const bool closed = std::fclose(file) == 0;
-  if (!written || !closed) {
-    const int error = written ? errno : write_errno;
-    std::remove(temp.c_str());
-    throw InputError(path, std::string("write failed") + (error ? std::string(": ") + std::strerror(error) : ""));
-  }
-  if (std::rename(temp.c_str(), path.c_str()) != 0) {
-    const int error = errno;
-    std::remove(temp.c_str());
-    throw InputError(path, "cannot rename " + temp + " into place: " + std::strerror(error));
-  }
 }
 
 // Reading: every accessor checks presence, type and finiteness and names what it reads, so each

@@ -1,12 +1,10 @@
 #include "mocap_io/gltf_export.h"
 
 #include <tiny_gltf.h>
-#include <unistd.h>
 
 #include <Eigen/SVD>
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <bit>
 #include <cerrno>
 #include <cmath>
@@ -24,6 +22,7 @@
 #include <stdexcept>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/output_file.h"
 #include "skeleton/rotation.h"
 
 namespace odyssey::io {
@@ -953,29 +952,6 @@ void check_camera_fits_clip(const CameraPath& camera, const Clip& clip) {
       throw std::invalid_argument("camera path frame " + std::to_string(f) +
                                   " has other intrinsics than frame 0: a glTF camera's projection cannot be animated");
     }
-  }
-}
-
-// Writes to a temporary name beside `path` and renames it into place when complete; the
-// temporary file is removed on any failure.
-void write_file_atomically(const std::string& path, const std::string& bytes) {
-  static std::atomic<unsigned> counter{0};
-  const std::string temp = path + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
-  std::FILE* file = std::fopen(temp.c_str(), "wb");
-  if (!file) throw InputError(path, "cannot create " + temp + ": " + std::strerror(errno));
-  errno = 0;
-  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
-  const int write_errno = errno;
-  const bool closed = std::fclose(file) == 0;
-  if (!written || !closed) {
-    const int error = written ? errno : write_errno;
-    std::remove(temp.c_str());
-    throw InputError(path, std::string("write failed") + (error ? std::string(": ") + std::strerror(error) : ""));
-  }
-  if (std::rename(temp.c_str(), path.c_str()) != 0) {
-    const int error = errno;
-    std::remove(temp.c_str());
-    throw InputError(path, "cannot rename " + temp + " into place: " + std::strerror(error));
   }
 }
 

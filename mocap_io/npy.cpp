@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <bit>
 #include <cctype>
 #include <cerrno>
@@ -14,6 +13,7 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "mocap_io/output_file.h"
 #include "mocap_io/zip.h"
 
 namespace odyssey::io {
@@ -505,46 +505,6 @@ void check_data_size(const NpyArray& array) {
     throw std::invalid_argument("array data holds " + std::to_string(array.data.size()) + " bytes, shape " +
                                 shape_text(array.shape()) + " of " + dtype_name(array.dtype()) + " needs another size");
 }
-
-// The temporary file beside the target: renamed onto it by commit(), removed if never committed.
-class TempFile {
- public:
-  explicit TempFile(const std::string& target)
-      : target_(target), temp_(target + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(counter_++)),
-        file_(std::fopen(temp_.c_str(), "wb")) {
-    if (!file_) throw InputError(target_, "cannot create " + temp_ + ": " + std::strerror(errno));
-  }
-  ~TempFile() {
-    file_.reset();
-    if (!committed_) std::remove(temp_.c_str());
-  }
-  TempFile(const TempFile&) = delete;
-  TempFile& operator=(const TempFile&) = delete;
-
-  std::FILE* get() const { return file_.get(); }
-
-  void write(std::span<const std::byte> bytes) {
-    if (std::fwrite(bytes.data(), 1, bytes.size(), file_.get()) != bytes.size())
-      throw InputError(target_, std::string("write failed: ") + std::strerror(errno));
-  }
-
-  void commit() {
-    errno = 0;
-    const bool had_error = std::ferror(file_.get()) != 0;
-    if (std::fclose(file_.release()) != 0 || had_error)
-      throw InputError(target_, std::string("write failed") + (errno ? std::string(": ") + std::strerror(errno) : std::string()));
-    if (std::rename(temp_.c_str(), target_.c_str()) != 0)
-      throw InputError(target_, "cannot rename " + temp_ + " into place: " + std::strerror(errno));
-    committed_ = true;
-  }
-
- private:
-  static inline std::atomic<unsigned> counter_{0};
-  std::string target_;
-  std::string temp_;
-  FileHandle file_;
-  bool committed_ = false;
-};
 
 // --- conversions -----------------------------------------------------------------------------
 

@@ -1,10 +1,7 @@
 #include "mocap_io/point_cache.h"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <bit>
 #include <cerrno>
 #include <charconv>
@@ -18,6 +15,7 @@
 #include <vector>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/output_file.h"
 #include "skeleton/fk.h"
 
 namespace odyssey::io {
@@ -28,60 +26,6 @@ static_assert(std::endian::native == std::endian::little, "PC2 is little endian 
 constexpr std::size_t kPc2HeaderBytes = 32;
 // The OBJ text is built in memory and written out whenever it passes this size.
 constexpr std::size_t kObjFlushBytes = std::size_t{1} << 20;
-
-// Position of the first value that is not finite, or values.size(). In IEEE 754 binary32 a value
-// is infinite or NaN exactly when its exponent bits are all ones, that is when its bits with the
-// sign cleared are >= 0x7f800000. The common, all-finite case is one pass taking the maximum of
-// those bit patterns: an integer reduction the compiler vectorises (a float reduction it would
-// not, without -ffast-math). Only an array that fails is scanned again, to name the position.
-std::size_t first_non_finite(std::span<const float> values) {
-  std::uint32_t largest = 0;
-  for (const float v : values) largest = std::max(largest, std::bit_cast<std::uint32_t>(v) & 0x7fffffffu);
-  if (largest < 0x7f800000u) return values.size();
-  return static_cast<std::size_t>(std::find_if(values.begin(), values.end(), [](float v) { return !std::isfinite(v); }) -
-                                  values.begin());
-}
-
-// The output under a temporary name beside the target: commit() renames it onto the target; if
-// it is never committed, the destructor removes it.
-class TempOutput {
- public:
-  explicit TempOutput(const std::string& target)
-      : target_(target),
-        temp_(target + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(counter_++)),
-        file_(std::fopen(temp_.c_str(), "wb")) {
-    if (!file_) throw InputError(target_, "cannot create temporary file " + temp_ + ": " + std::strerror(errno));
-  }
-  ~TempOutput() {
-    if (file_) std::fclose(file_);
-    if (!committed_) std::remove(temp_.c_str());
-  }
-  TempOutput(const TempOutput&) = delete;
-  TempOutput& operator=(const TempOutput&) = delete;
-
-  void write(std::span<const std::byte> bytes) {
-    if (std::fwrite(bytes.data(), 1, bytes.size(), file_) != bytes.size())
-      throw InputError(target_, std::string("write failed: ") + std::strerror(errno));
-  }
-
-  void commit() {
-    errno = 0;
-    const bool had_error = std::ferror(file_) != 0;
-    const bool closed = std::fclose(std::exchange(file_, nullptr)) == 0;
-    if (!closed || had_error)
-      throw InputError(target_, std::string("write failed") + (errno ? std::string(": ") + std::strerror(errno) : std::string()));
-    if (std::rename(temp_.c_str(), target_.c_str()) != 0)
-      throw InputError(target_, "cannot rename " + temp_ + " into place: " + std::strerror(errno));
-    committed_ = true;
-  }
-
- private:
-  static inline std::atomic<unsigned> counter_{0};
-  std::string target_;
-  std::string temp_;
-  std::FILE* file_;
-  bool committed_ = false;
-};
 
 template <class T>
 void put(std::array<std::byte, kPc2HeaderBytes>& header, std::size_t offset, T value) {
@@ -110,11 +54,11 @@ struct Pc2Writer::State {
   std::string path;
   std::size_t points;
   std::size_t frames;
-  std::unique_ptr<TempOutput> file;  // null once closed, or after a failed write
+  std::unique_ptr<TempFile> file;  // null once closed, or after a failed write
   std::size_t written = 0;
   bool closed = false;
 
-  TempOutput& live() {
+  TempFile& live() {
     if (closed) throw std::logic_error("Pc2Writer used after close()");
     if (!file) throw std::logic_error("Pc2Writer used after a failed write; the file cannot be completed");
     return *file;
@@ -134,7 +78,7 @@ Pc2Writer::Pc2Writer(std::string path, std::size_t points, std::size_t frames, d
   s.path = std::move(path);
   s.points = points;
   s.frames = frames;
-  s.file = std::make_unique<TempOutput>(s.path);
+  s.file = std::make_unique<TempFile>(s.path);
 
   // char[12] "POINTCACHE2\0" | int32 version 1 | int32 V | float32 start | float32 rate 1 | int32 T
   std::array<std::byte, kPc2HeaderBytes> header{};
@@ -151,7 +95,7 @@ Pc2Writer::~Pc2Writer() = default;
 
 void Pc2Writer::append_frames(std::size_t count, std::span<const float> positions) {
   State& s = *state_;
-  TempOutput& file = s.live();
+  TempFile& file = s.live();
   if (count > s.frames - s.written)
     throw std::invalid_argument("PC2: " + std::to_string(count) + " more frames after " + std::to_string(s.written) +
                                 " would make " + std::to_string(s.written + count) + ", the file holds " +
@@ -184,7 +128,7 @@ void Pc2Writer::close() {
   s.live();
   // Whatever happens below, the writer is finished and an uncommitted temporary file goes.
   s.closed = true;
-  const std::unique_ptr<TempOutput> file = std::move(s.file);
+  const std::unique_ptr<TempFile> file = std::move(s.file);
   if (s.written < s.frames)
     throw std::invalid_argument("PC2 " + s.path + ": closed after " + std::to_string(s.written) + " of " +
                                 std::to_string(s.frames) + " frames");
@@ -193,7 +137,7 @@ void Pc2Writer::close() {
 
 void write_rest_obj(const std::string& path, const Character& character) {
   const std::vector<RigidTransform<double>> rest = character.skeleton.rest_world();
-  TempOutput file(path);
+  TempFile file(path);
   std::string text = "# " + object_name(character.name, 0) + " at the rest pose: world frame, Z up, metres\n";
   auto flush = [&] {
     file.write(std::as_bytes(std::span(text)));

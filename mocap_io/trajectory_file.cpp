@@ -3,7 +3,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <bit>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -13,6 +12,7 @@
 
 #include "mocap_io/input_error.h"
 #include "mocap_io/npy.h"
+#include "mocap_io/output_file.h"
 
 namespace odyssey::io {
 namespace {
@@ -21,19 +21,6 @@ namespace {
 // whatever T is; 1 MiB is large enough that the per-call overhead of fread and the zip writer
 // does not show.
 constexpr std::size_t kCopyBlockBytes = std::size_t{1} << 20;
-
-// Position of the first value that is not finite, or values.size(). In IEEE 754 binary32 a value
-// is infinite or NaN exactly when its exponent bits are all ones, that is when its bits with the
-// sign cleared are >= 0x7f800000. The common, all-finite case is one pass taking the maximum of
-// those bit patterns: an integer reduction the compiler vectorises (a float reduction it would
-// not, without -ffast-math). Only an array that fails is scanned again, to name the position.
-std::size_t first_non_finite(std::span<const float> values) {
-  std::uint32_t largest = 0;
-  for (const float v : values) largest = std::max(largest, std::bit_cast<std::uint32_t>(v) & 0x7fffffffu);
-  if (largest < 0x7f800000u) return values.size();
-  return static_cast<std::size_t>(std::find_if(values.begin(), values.end(), [](float v) { return !std::isfinite(v); }) -
-                                  values.begin());
-}
 
 // "frame 12, value 7 of 30": where a flat index of a chunk lands, for messages.
 std::string position_text(std::size_t first_frame, std::size_t index, std::size_t per_frame) {

@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "test_support.h"
 #include "mocap_io/npy.h"
 #include "mocap_io/zip.h"
 
@@ -24,25 +25,14 @@ using namespace odyssey::io;
 
 namespace {
 
+using odyssey::test_support::numpy_python;
+
 fs::path scratch_file(const std::string& suffix) {
   const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "npz";
   fs::create_directories(dir);
   const auto* test = testing::UnitTest::GetInstance()->current_test_info();
   return dir / (std::string(test->test_suite_name()) + "." + test->name() + "." + suffix);
 }
-
-// The numpy-capable interpreter, or empty when there is none (those tests then skip).
-std::string numpy_python() {
-  static const std::string python = [] {
-    const std::string candidate = ODYSSEY_PYTHON;
-    if (candidate.empty() || candidate.ends_with("NOTFOUND")) return std::string();
-    return std::system((candidate + " -c 'import numpy' >/dev/null 2>&1").c_str()) == 0 ? candidate : std::string();
-  }();
-  return python;
-}
-
-#define REQUIRE_NUMPY() \
-  if (numpy_python().empty()) GTEST_SKIP() << "python3 with numpy not found"
 
 // Runs `script` with the given arguments; true when it exits 0.
 bool run_python(const std::string& script, const std::vector<std::string>& args) {

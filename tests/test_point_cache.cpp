@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "test_support.h"
 #include "mocap_io/gltf_character.h"
 #include "mocap_io/input_error.h"
 #include "mocap_io/point_cache.h"
@@ -27,6 +28,9 @@ using namespace odyssey;
 using namespace odyssey::io;
 
 namespace {
+
+using odyssey::test_support::message_of;
+using odyssey::test_support::contains;
 
 // A fresh, empty folder for the current test, so that leftovers can be listed.
 fs::path scratch_dir() {
@@ -56,19 +60,6 @@ T read_at(const std::vector<char>& bytes, std::size_t offset) {
   std::memcpy(&value, bytes.data() + offset, sizeof value);
   return value;
 }
-
-template <class E, class F>
-std::string message_of(F&& operation) {
-  try {
-    operation();
-  } catch (const E& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no exception of the expected type";
-  return {};
-}
-
-bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 // T samples of V points, every coordinate distinct: x = t + v/100, y = -v, z = 0.5 t - 0.001 v.
 std::vector<float> samples(std::size_t frames, std::size_t points) {

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "test_support.h"
 #include "mocap_io/npy.h"
 #include "mocap_io/trajectory_file.h"
 
@@ -27,6 +28,10 @@ namespace fs = std::filesystem;
 using namespace odyssey::io;
 
 namespace {
+
+using odyssey::test_support::numpy_python;
+using odyssey::test_support::message_of;
+using odyssey::test_support::contains;
 
 constexpr std::size_t kFrames = 7;
 constexpr std::size_t kPoints = 5;
@@ -48,19 +53,6 @@ std::vector<std::string> files_in(const fs::path& dir) {
   std::sort(names.begin(), names.end());
   return names;
 }
-
-// The numpy-capable interpreter, or empty when there is none (those tests then skip).
-std::string numpy_python() {
-  static const std::string python = [] {
-    const std::string candidate = ODYSSEY_PYTHON;
-    if (candidate.empty() || candidate.ends_with("NOTFOUND")) return std::string();
-    return std::system((candidate + " -c 'import numpy' >/dev/null 2>&1").c_str()) == 0 ? candidate : std::string();
-  }();
-  return python;
-}
-
-#define REQUIRE_NUMPY() \
-  if (numpy_python().empty()) GTEST_SKIP() << "python3 with numpy not found"
 
 bool run_python(const fs::path& dir, const std::string& script, const std::vector<std::string>& args) {
   const fs::path path = dir.parent_path() / (dir.filename().string() + ".py");
@@ -123,19 +115,6 @@ void append(TrajectoryFileWriter& writer, const Frames& f, std::size_t first, st
   writer.append_frames(count, slice(f.trajs_3d, points * 3), slice(f.trajs_2d, points * 2), slice(f.valids, points),
                        slice(f.visibs, points), slice(f.intrinsics, 9), slice(f.extrinsics, 16));
 }
-
-template <class E, class F>
-std::string message_of(F&& operation) {
-  try {
-    operation();
-  } catch (const E& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no exception of the expected type";
-  return {};
-}
-
-bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 const std::vector<std::string> kKeys = {"trajs_3d",         "trajs_2d",         "visibs",
                                         "valids",           "intrinsics",       "extrinsics",

@@ -1,0 +1,69 @@
+#include "mocap_io/output_file.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <bit>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <utility>
+
+#include "mocap_io/input_error.h"
+
+namespace odyssey::io {
+namespace {
+
+// Distinguishes the temporary files of several writers to one target within a process.
+std::atomic<unsigned> temp_counter{0};
+
+}  // namespace
+
+TempFile::TempFile(std::string target)
+    : target_(std::move(target)),
+      temp_(target_ + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(temp_counter++)),
+      file_(std::fopen(temp_.c_str(), "wb")) {
+  if (!file_) throw InputError(target_, "cannot create " + temp_ + ": " + std::strerror(errno));
+}
+
+TempFile::~TempFile() {
+  if (file_) std::fclose(file_);
+  if (!committed_) std::remove(temp_.c_str());
+}
+
+void TempFile::write(std::span<const std::byte> bytes) {
+  if (std::fwrite(bytes.data(), 1, bytes.size(), file_) != bytes.size()) {
+    throw InputError(target_, std::string("write failed: ") + std::strerror(errno));
+  }
+}
+
+void TempFile::commit() {
+  errno = 0;
+  const bool had_error = std::ferror(file_) != 0;
+  const bool closed = std::fclose(std::exchange(file_, nullptr)) == 0;
+  if (!closed || had_error) {
+    throw InputError(target_, std::string("write failed") + (errno ? std::string(": ") + std::strerror(errno) : std::string()));
+  }
+  if (std::rename(temp_.c_str(), target_.c_str()) != 0) {
+    throw InputError(target_, "cannot rename " + temp_ + " into place: " + std::strerror(errno));
+  }
+  committed_ = true;
+}
+
+void write_file_atomically(const std::string& path, std::span<const std::byte> bytes) {
+  TempFile file(path);
+  file.write(bytes);
+  file.commit();
+}
+
+std::size_t first_non_finite(std::span<const float> values) {
+  std::uint32_t largest = 0;
+  for (const float v : values) largest = std::max(largest, std::bit_cast<std::uint32_t>(v) & 0x7fffffffu);
+  if (largest < 0x7f800000u) return values.size();
+  return static_cast<std::size_t>(std::find_if(values.begin(), values.end(), [](float v) { return !std::isfinite(v); }) -
+                                  values.begin());
+}
+
+}  // namespace odyssey::io
