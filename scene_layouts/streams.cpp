@@ -136,7 +136,7 @@ TrajectoryExportSummary export_trajectories(const Character& character, const Cl
         uv[2 * i] = static_cast<float>(pixel.u);
         uv[2 * i + 1] = static_cast<float>(pixel.v);
         valid[i] = pixel.valid;
-        visible[i] = pixel.valid && depth->visible(pixel.u, pixel.v, pixel.depth);
+        visible[i] = pixel.valid && depth->visible(pose.to_camera(point));
         valid_count += valid[i];
         visible_count += visible[i];
         low = low.cwiseMin(point);

@@ -1,5 +1,7 @@
 #include "scene_layouts/visibility.h"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -14,6 +16,33 @@ namespace {
 // watertight under rounding).
 constexpr double kEdgeSlackPixels = 1.0 / 1024;
 
+// Growth of triangles in the ray test, in barycentric units (see ray_parameter).
+constexpr double kBarycentricSlack = 1e-9;
+
+// Moller-Trumbore for the ray s P (s real) from the origin through P and the triangle (a, b, c):
+// solving a + beta (b - a) + gamma (c - a) = s P by Cramer's rule with e1 = b - a, e2 = c - a,
+// w = -a gives det = e1 . (P x e2), beta = w . (P x e2) / det, gamma = P . (w x e1) / det and
+// s = e2 . (w x e1) / det. Returns s where the ray meets the closed triangle grown by
+// kBarycentricSlack (beta, gamma >= -slack, beta + gamma <= 1 + slack), NaN where it misses it or
+// lies in its plane (det = 0: an edge-on triangle covers no area). The slack makes shared edges
+// watertight: a ray through an edge (or a vertex) would otherwise miss every triangle holding it
+// about half the time, by rounding of order 1e-16; 1e-9 of a triangle (a nanometre on a metre-sized
+// one) hides nothing that the reach does not already let through.
+double ray_parameter(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                     const Eigen::Vector3d& point) {
+  constexpr double kMiss = std::numeric_limits<double>::quiet_NaN();
+  const Eigen::Vector3d e1 = b - a, e2 = c - a, w = -a;
+  const Eigen::Vector3d p = point.cross(e2);
+  const double det = e1.dot(p);
+  if (det == 0) return kMiss;
+  const double beta = w.dot(p) / det;
+  if (!(beta >= -kBarycentricSlack && beta <= 1 + kBarycentricSlack)) return kMiss;
+  const Eigen::Vector3d q = w.cross(e1);
+  const double gamma = point.dot(q) / det;
+  if (!(gamma >= -kBarycentricSlack && beta + gamma <= 1 + kBarycentricSlack)) return kMiss;
+  return e2.dot(q) / det;
+}
+
 }  // namespace
 
 DepthBuffer::DepthBuffer(int width, int height) : width_(width), height_(height) {
@@ -25,6 +54,7 @@ DepthBuffer::DepthBuffer(int width, int height) : width_(width), height_(height)
     throw std::invalid_argument("depth buffer: " + std::to_string(width) + "x" + std::to_string(height) +
                                 " pixels are too many");
   inverse_depth_.assign(static_cast<std::size_t>(width) * height, 0.0f);
+  triangle_.resize(inverse_depth_.size());
 }
 
 float DepthBuffer::depth(int x, int y) const {
@@ -35,24 +65,79 @@ float DepthBuffer::depth(int x, int y) const {
   return 1.0f / inverse_depth_[static_cast<std::size_t>(y) * width_ + x];
 }
 
-bool DepthBuffer::visible(double u, double v, double depth) const {
+bool DepthBuffer::visible(const Eigen::Vector3d& point) const {
+  if (!intrinsics_) return false;
+  const PinholeIntrinsics& k = *intrinsics_;
   // Written so that NaN fails every test.
-  if (!(depth > 0 && depth < std::numeric_limits<double>::infinity())) return false;
+  if (!(point.z() > 0 && point.allFinite())) return false;
+  const double u = k.fx * point.x() / point.z() + k.cx, v = k.fy * point.y() / point.z() + k.cy;
   if (!(u >= 0 && u < width_ && v >= 0 && v < height_)) return false;
-  const int i0 = static_cast<int>(std::floor(u - 0.5)), j0 = static_cast<int>(std::floor(v - 0.5));
-  // The largest depth over the 2x2 centres is the smallest stored 1/z (0 where nothing was drawn).
-  float smallest = std::numeric_limits<float>::infinity();
-  for (const int j : {j0, j0 + 1}) {
-    const std::size_t row = static_cast<std::size_t>(std::clamp(j, 0, height_ - 1)) * width_;
-    for (const int i : {i0, i0 + 1}) smallest = std::min(smallest, inverse_depth_[row + std::clamp(i, 0, width_ - 1)]);
+
+  // Candidates, in the order tested: the distinct nearest triangles at the 3x3 centres around
+  // (u, v) (the pixel holding it and its neighbours inside the image, skipping empty ones, whose
+  // triangle entry is stale), then, breadth first, the triangles across their edges whose
+  // projection meets the box B = [u - 1, u + 1] x [v - 1, v + 1], up to kMaxCandidates in all.
+  const int x = static_cast<int>(u), y = static_cast<int>(v);
+  std::array<std::uint32_t, kMaxCandidates> candidates;
+  int count = 0;
+  auto add = [&](std::uint32_t id) {
+    const auto end = candidates.begin() + count;
+    if (count < kMaxCandidates && std::find(candidates.begin(), end, id) == end) candidates[count++] = id;
+  };
+  for (int j = std::max(y - 1, 0); j <= std::min(y + 1, height_ - 1); ++j) {
+    for (int i = std::max(x - 1, 0); i <= std::min(x + 1, width_ - 1); ++i) {
+      const std::size_t pixel = static_cast<std::size_t>(j) * width_ + i;
+      if (inverse_depth_[pixel] != 0) add(triangle_[pixel]);
+    }
   }
-  // z <= (1 + tol) / (1/D), multiplied out so that an empty centre (1/D = 0) makes it visible.
-  return depth * smallest <= 1 + kRelativeDepthTolerance;
+  // Whether triangle t's projection meets B (separating axes: B's two and the triangle's three
+  // edge normals); true when a corner lies before the near plane (its projection is not kept),
+  // which only lets more triangles in.
+  auto meets_box = [&](std::uint32_t t) {
+    std::array<const ScreenVertex*, 3> p;
+    for (int c = 0; c < 3; ++c) {
+      const std::uint32_t i = triangles_[3 * std::size_t{t} + c];
+      if (camera_[i].z() < kNearDepth) return true;
+      p[c] = &screen_[i];
+    }
+    if (std::max({p[0]->u, p[1]->u, p[2]->u}) < u - 1 || std::min({p[0]->u, p[1]->u, p[2]->u}) > u + 1 ||
+        std::max({p[0]->v, p[1]->v, p[2]->v}) < v - 1 || std::min({p[0]->v, p[1]->v, p[2]->v}) > v + 1)
+      return false;
+    // Edge a -> b with the third corner c on its positive side (sign of the area): B lies outside
+    // when the edge function (b - a) x (q - a), times the sign, is negative at all four corners q of
+    // B, that is at the corner maximising it: |du| + |dv| above its value at the centre (u, v).
+    const double area = (p[1]->u - p[0]->u) * (p[2]->v - p[0]->v) - (p[2]->u - p[0]->u) * (p[1]->v - p[0]->v);
+    const double sign = area < 0 ? -1 : 1;
+    for (int e = 0; e < 3; ++e) {
+      const ScreenVertex& a = *p[e];
+      const ScreenVertex& b = *p[(e + 1) % 3];
+      const double du = b.u - a.u, dv = b.v - a.v;
+      if (sign * (du * (v - a.v) - dv * (u - a.u)) + std::abs(du) + std::abs(dv) < 0) return false;
+    }
+    return true;
+  };
+
+  // Hidden when the segment from the camera (the origin) to the point crosses a candidate more than
+  // `reach` before the point: at s P with 0 < s and (1 - s) |P| > reach.
+  const double distance = point.norm();
+  const double reach = std::max(kRelativeDepthTolerance * distance, kAbsoluteDepthTolerance);
+  for (int c = 0; c < count; ++c) {
+    const std::size_t t = 3 * std::size_t{candidates[c]};
+    const double s =
+        ray_parameter(camera_[triangles_[t]], camera_[triangles_[t + 1]], camera_[triangles_[t + 2]], point);
+    if (s > 0 && (1 - s) * distance > reach) return false;
+    for (int e = 0; e < 3; ++e) {
+      const std::uint32_t other = neighbours_[t + e];
+      if (other != kNoTriangle && meets_box(other)) add(other);
+    }
+  }
+  return true;
 }
 
 void DepthBuffer::render(const CameraPose& pose, const PinholeIntrinsics& k, std::span<const float> positions,
                          std::span<const std::uint32_t> triangles) {
   std::fill(inverse_depth_.begin(), inverse_depth_.end(), 0.0f);
+  intrinsics_.reset();
   if (k.width != width_ || k.height != height_)
     throw std::invalid_argument("depth buffer: intrinsics are for a " + std::to_string(k.width) + "x" +
                                 std::to_string(k.height) + " image, the buffer is " + std::to_string(width_) + "x" +
@@ -85,13 +170,20 @@ void DepthBuffer::render(const CameraPose& pose, const PinholeIntrinsics& k, std
     camera_[i] = c;
     if (c.z() >= kNearDepth) screen_[i] = project(c);
   }
+  // Every input is valid from here on: keep the camera and the mesh for visible().
+  intrinsics_ = k;
+  if (!std::ranges::equal(triangles, triangles_)) {
+    triangles_.assign(triangles.begin(), triangles.end());
+    find_neighbours(positions);
+  }
 
   for (std::size_t t = 0; t < triangles.size(); t += 3) {
     const std::array<std::uint32_t, 3> index{triangles[t], triangles[t + 1], triangles[t + 2]};
+    const auto id = static_cast<std::uint32_t>(t / 3);
     int in_front = 0;
     for (const std::uint32_t i : index) in_front += camera_[i].z() >= kNearDepth;
     if (in_front == 3) {
-      rasterise(screen_[index[0]], screen_[index[1]], screen_[index[2]]);
+      rasterise(screen_[index[0]], screen_[index[1]], screen_[index[2]], id);
       continue;
     }
     if (in_front == 0) continue;
@@ -111,11 +203,53 @@ void DepthBuffer::render(const CameraPose& pose, const PinholeIntrinsics& k, std
         polygon[corners++] = project(crossing);
       }
     }
-    for (int c = 2; c < corners; ++c) rasterise(polygon[0], polygon[c - 1], polygon[c]);
+    for (int c = 2; c < corners; ++c) rasterise(polygon[0], polygon[c - 1], polygon[c], id);
   }
 }
 
-void DepthBuffer::rasterise(const ScreenVertex& p0, const ScreenVertex& p1, const ScreenVertex& p2) {
+void DepthBuffer::find_neighbours(std::span<const float> positions) {
+  // Corners are joined by position, not index: meshes split vertices along UV and normal seams.
+  // same[v] is the first vertex (in xyz order) at v's exact float position.
+  const std::size_t vertices = positions.size() / 3;
+  std::vector<std::uint32_t> order(vertices), same(vertices);
+  for (std::size_t v = 0; v < vertices; ++v) order[v] = static_cast<std::uint32_t>(v);
+  auto xyz = [&](std::uint32_t v) { return std::span(positions).subspan(3 * std::size_t{v}, 3); };
+  std::ranges::sort(order, [&](std::uint32_t a, std::uint32_t b) {
+    return std::ranges::lexicographical_compare(xyz(a), xyz(b));
+  });
+  for (std::size_t i = 0; i < vertices; ++i)
+    same[order[i]] = i > 0 && std::ranges::equal(xyz(order[i]), xyz(order[i - 1])) ? same[order[i - 1]] : order[i];
+  std::vector<std::uint32_t> corner(triangles_.size());
+  for (std::size_t i = 0; i < triangles_.size(); ++i) corner[i] = same[triangles_[i]];
+
+  // The triangles around each (joined) vertex, as one array sliced by vertex (counting sort):
+  // triangle t is listed under each of its corners, between first[v] and first[v + 1].
+  const std::size_t count = corner.size() / 3;
+  std::vector<std::size_t> first(vertices + 1, 0);
+  for (const std::uint32_t v : corner) ++first[v + 1];
+  for (std::size_t v = 0; v < vertices; ++v) first[v + 1] += first[v];
+  std::vector<std::uint32_t> around(corner.size());
+  std::vector<std::size_t> next(first.begin(), first.end() - 1);
+  for (std::size_t i = 0; i < corner.size(); ++i) around[next[corner[i]]++] = static_cast<std::uint32_t>(i / 3);
+  // Across edge e of t (corners e, e + 1): a triangle other than t around corner e holding corner e + 1.
+  neighbours_.assign(corner.size(), kNoTriangle);
+  for (std::size_t t = 0; t < count; ++t) {
+    for (int e = 0; e < 3; ++e) {
+      const std::uint32_t a = corner[3 * t + e], b = corner[3 * t + (e + 1) % 3];
+      for (std::size_t i = first[a]; i < first[a + 1]; ++i) {
+        const std::uint32_t other = around[i];
+        const auto corners = std::span(corner).subspan(3 * std::size_t{other}, 3);
+        if (other != t && std::ranges::find(corners, b) != corners.end()) {
+          neighbours_[3 * t + e] = other;
+          break;
+        }
+      }
+    }
+  }
+}
+
+void DepthBuffer::rasterise(const ScreenVertex& p0, const ScreenVertex& p1, const ScreenVertex& p2,
+                            std::uint32_t triangle) {
   const std::array<const ScreenVertex*, 3> p{&p0, &p1, &p2};
   const double area = (p1.u - p0.u) * (p2.v - p0.v) - (p2.u - p0.u) * (p1.v - p0.v);
   if (area == 0 || !std::isfinite(area)) return;
@@ -179,12 +313,17 @@ void DepthBuffer::rasterise(const ScreenVertex& p0, const ScreenVertex& p1, cons
     }
     if (!(low <= high)) continue;
     const int first = static_cast<int>(std::ceil(low)), last = static_cast<int>(std::floor(high));
-    // Only the depth is left for the inner loop: float, branch-free, vectorised.
+    // Only the depth test is left for the inner loop: float, branch-free (both stores are
+    // unconditional selects), vectorised. Strictly nearer wins: at equal depth the first drawn stays.
     const float iz_start = static_cast<float>(iz0 + r * iz_dv);
-    float* row = inverse_depth_.data() + static_cast<std::size_t>(y0 + r) * width_ + x0;
+    const std::size_t row_start = static_cast<std::size_t>(y0 + r) * width_ + x0;
+    float* row = inverse_depth_.data() + row_start;
+    std::uint32_t* ids = triangle_.data() + row_start;
     for (int n = first; n <= last; ++n) {
       const float depth = std::clamp(iz_start + static_cast<float>(n) * iz_step, iz_low, iz_high);
-      row[n] = std::max(row[n], depth);
+      const bool nearer = depth > row[n];
+      row[n] = nearer ? depth : row[n];
+      ids[n] = nearer ? triangle : ids[n];
     }
   }
 }

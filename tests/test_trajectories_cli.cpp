@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "test_support.h"
 #include "cli_runner.h"
 #include "mocap_io/bvh.h"
 #include "mocap_io/camera_path_file.h"
@@ -40,11 +41,13 @@
 #include "retarget/retarget.h"
 #include "scene_layouts/camera_rigs.h"
 #include "scene_layouts/streams.h"
-#include "scene_layouts/visibility.h"
 #include "skinning/sampling.h"
 
 namespace odyssey {
 namespace {
+
+using test_support::contains;
+using test_support::numpy_python;
 
 namespace fs = std::filesystem;
 
@@ -58,8 +61,6 @@ fs::path scratch(const std::string& name) {
   fs::create_directories(dir);
   return dir / name;
 }
-
-bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 // Nothing in the scratch folder whose name starts with `stem`, temporaries included.
 void expect_no_output_named(const std::string& stem) {
@@ -101,12 +102,6 @@ std::vector<std::vector<Eigen::Vector3d>> reference_vertices(const Character& ch
 }
 
 double character_size(const Character& character) { return std::max(1.0, character.rest_bounds().sizes().maxCoeff()); }
-
-std::string numpy_python() {
-  const std::string candidate = ODYSSEY_PYTHON;
-  if (candidate.empty() || candidate.ends_with("NOTFOUND")) return "";
-  return std::system((candidate + " -c 'import numpy' >/dev/null 2>&1").c_str()) == 0 ? candidate : "";
-}
 
 TEST(TrajectoriesCliTest, PointsAndPixelsMatchTheReferenceAndNumpyLoadsTheFile) {
   const fs::path npz = scratch("walk.npz"), camera_json = scratch("walk_camera.json");
@@ -200,21 +195,10 @@ TEST(TrajectoriesCliTest, PointsAndPixelsMatchTheReferenceAndNumpyLoadsTheFile) 
             const double bv = ray.dot(qv) / det;
             const double along = e2.dot(qv) / det;  // in units of the ray: 1 at the point
             hidden = bu >= 0 && bv >= 0 && bu + bv <= 1 && along > 0 && (1 - along) * ray.norm() > 1e-3;
-            if (hidden && visible[f * n + i]) {
-              std::vector<float> flat; std::vector<std::uint32_t> all;
-              for (const auto& vv : vertices[0]) { flat.push_back(vv.x()); flat.push_back(vv.y()); flat.push_back(vv.z()); }
-              scene::DepthBuffer db(960, 540);
-              CameraPose pose; for (int a = 0; a < 3; ++a) { for (int b = 0; b < 3; ++b) pose.rotation(a, b) = e[f*16+4*a+b]; pose.translation[a] = e[f*16+4*a+3]; }
-              PinholeIntrinsics kk2 = intrinsics_from_hfov(960, 540, 80);
-              db.render(pose, kk2, flat, motion.character.meshes[0].triangles);
-              int x = int(std::floor(u - 0.5)), y = int(std::floor(v - 0.5));
-              std::printf("DBG2 along %f raylen %f z %f hitz %f d00 %f d10 %f d01 %f d11 %f meshes %zu\n", along, ray.norm(), camera[2], along*camera[2], db.depth(x,y), db.depth(x+1,y), db.depth(x,y+1), db.depth(x+1,y+1), motion.character.meshes.size());
-            }
           }
         }
         ++checked_visible;
         visible_agree += (visible[f * n + i] != 0) == !hidden;
-        if ((visible[f * n + i] != 0) != !hidden) std::printf("DBG f %zu i %zu file %d ray %d depth %f\n", f, i, int(visible[f*n+i]), int(!hidden), camera[2]);
         visible_count += !hidden;
       }
     }

@@ -1,8 +1,10 @@
 // DepthBuffer: exact depths of frontal and slanted planes (perspective-correct, watertight along a
-// shared diagonal, both windings), one square hiding another, the relative tolerance at its
-// boundary, closed meshes (a sphere and a cube, frontal and oblique) whose front points are all
-// visible and whose back points are hidden, a steep slant where the 2x2 rule is needed, triangles
-// crossing the near plane, points outside the image or behind the camera, and error cases.
+// shared diagonal, both windings), one square hiding another exactly up to its outline, the reach
+// of the ray test at its boundary (absolute and relative), silhouettes (a bar's edge and a sub-pixel
+// sliver beside a face) against brute-force ray casting, closed meshes (a sphere and a cube,
+// frontal and oblique) whose front points are all visible and whose back points are hidden, a steep
+// slant that a depth comparison at the nearest centre would hide, triangles crossing the near
+// plane, points outside the image or behind the camera or before any render, and error cases.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -31,7 +33,6 @@ using Eigen::Vector3d;
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kTolerance = DepthBuffer::kRelativeDepthTolerance;
 
 // The dataset's default camera: 960x540, 60 degrees across, f = 480 / tan(30 deg) = 831.4 px.
 const PinholeIntrinsics kCamera = intrinsics_from_hfov(960, 540, 60);
@@ -82,8 +83,35 @@ DepthBuffer rendered(const Mesh& mesh, const CameraPose& pose = {}) {
 }
 
 bool visible_point(const DepthBuffer& buffer, const CameraPose& pose, const Vector3d& world) {
-  const PixelProjection p = project(pose, kCamera, world);
-  return buffer.visible(p.u, p.v, p.depth);
+  return buffer.visible(pose.to_camera(world));
+}
+
+// The buffer's reach: an occluder this far or nearer in front of a point along its ray does not hide it.
+double reach(const Vector3d& camera_point) {
+  return std::max(DepthBuffer::kRelativeDepthTolerance * camera_point.norm(), DepthBuffer::kAbsoluteDepthTolerance);
+}
+
+// The exact answer by brute force: whether the segment from the camera centre to the camera point
+// crosses any triangle of the mesh (its float vertices, in double) more than the reach before the
+// point. Moller-Trumbore for the ray s P from the origin: with e1 = b - a, e2 = c - a, w = -a,
+// det = e1 . (P x e2), beta = w . (P x e2) / det, gamma = P . (w x e1) / det, s = e2 . (w x e1) / det,
+// with triangles grown by 1e-9 in barycentric units so that rays through shared edges or vertices
+// do not slip between the triangles by rounding.
+bool hidden_by_ray(const Mesh& mesh, const CameraPose& pose, const Vector3d& camera_point) {
+  constexpr double kSlack = 1e-9;
+  for (std::size_t t = 0; t < mesh.triangles.size(); t += 3) {
+    const Vector3d a = pose.to_camera(mesh.vertex(mesh.triangles[t]));
+    const Vector3d e1 = pose.to_camera(mesh.vertex(mesh.triangles[t + 1])) - a;
+    const Vector3d e2 = pose.to_camera(mesh.vertex(mesh.triangles[t + 2])) - a;
+    const Vector3d p = camera_point.cross(e2), w = -a, q = w.cross(e1);
+    const double det = e1.dot(p);
+    if (det == 0) continue;
+    const double beta = w.dot(p) / det, gamma = camera_point.dot(q) / det, s = e2.dot(q) / det;
+    if (beta >= -kSlack && gamma >= -kSlack && beta + gamma <= 1 + kSlack && s > 0 &&
+        (1 - s) * camera_point.norm() > reach(camera_point))
+      return true;
+  }
+  return false;
 }
 
 template <class E, class F>
@@ -158,24 +186,18 @@ TEST(DepthBuffer, SlantedPlaneDepthIsPerspectiveCorrect) {
 }
 
 // A near square at z = 2 over [300, 500] x [150, 350] in front of a far square at z = 4 over
-// [100, 800] x [50, 450]. Far points whose pixel lies more than a pixel inside the near square are
-// hidden, those more than a pixel outside it visible; every point of the near square is visible.
-TEST(DepthBuffer, SquareHidesTheSquareBehindIt) {
+// [100, 800] x [50, 450]. A far point is hidden exactly when its pixel position lies inside the near
+// square (the sample positions stay at least 0.25 px from its outline); every point of the near
+// square is visible.
+TEST(DepthBuffer, SquareHidesTheSquareBehindItUpToItsOutline) {
   const Mesh near = frontal_square(300, 150, 500, 350, 2);
   const DepthBuffer buffer = rendered(merged(near, frontal_square(100, 50, 800, 450, 4)));
   int hidden_checked = 0, visible_checked = 0, near_checked = 0;
   for (double u = 100.25; u < 800; u += 1.5) {
     for (double v = 50.25; v < 450; v += 1.5) {
-      const bool inside = u > 301 && u < 499 && v > 151 && v < 349;
-      const bool outside = u < 299 || u > 501 || v < 149 || v > 351;
-      const bool far_visible = buffer.visible(u, v, 4);
-      if (inside) {
-        EXPECT_FALSE(far_visible) << u << ", " << v;
-        ++hidden_checked;
-      } else if (outside) {
-        EXPECT_TRUE(far_visible) << u << ", " << v;
-        ++visible_checked;
-      }
+      const bool inside = u > 300 && u < 500 && v > 150 && v < 350;
+      EXPECT_EQ(buffer.visible(unproject(u, v, 4)), !inside) << u << ", " << v;
+      ++(inside ? hidden_checked : visible_checked);
       if (u >= 300 && u <= 500 && v >= 150 && v <= 350) {
         // The point of the near square at this pixel, projected as the exporter does.
         EXPECT_TRUE(visible_point(buffer, {}, unproject(u, v, 2))) << u << ", " << v;
@@ -183,29 +205,98 @@ TEST(DepthBuffer, SquareHidesTheSquareBehindIt) {
       }
     }
   }
-  EXPECT_GT(hidden_checked, 15000);
-  EXPECT_GT(visible_checked, 90000);
+  EXPECT_GT(hidden_checked, 17000);
+  EXPECT_GT(visible_checked, 100000);
   EXPECT_GT(near_checked, 15000);
 }
 
-// The tolerance, relative: behind a frontal plane at depth d, a point at d (1 + 0.5e-3) still
-// counts as visible, one at d (1 + 2e-3) is hidden, at any depth.
-TEST(DepthBuffer, RelativeToleranceDecidesNearlyCoincidentSurfaces) {
+// The reach: behind a frontal plane at depth d, a point whose ray crosses the plane half the reach
+// before it is visible, one at twice the reach hidden, with the absolute 1 mm deciding at d = 0.05
+// and 2 m and the relative 1e-4 |P| at 40 m. On the ray through (u, v) with direction r (r_z = 1),
+// the point at depth z lies |r| (z - d) behind the plane's crossing.
+TEST(DepthBuffer, ReachDecidesNearlyCoincidentSurfaces) {
   for (const double d : {0.05, 2.0, 40.0}) {
     const DepthBuffer buffer = rendered(frontal_square(200, 100, 700, 400, d));
-    // Points whose four nearest centres all lie on the square.
     for (const double u : {200.6, 333.3, 699.4}) {
-      EXPECT_TRUE(buffer.visible(u, 250, d)) << d;
-      EXPECT_TRUE(buffer.visible(u, 250, d * (1 + 0.5 * kTolerance))) << d;
-      EXPECT_FALSE(buffer.visible(u, 250, d * (1 + 2 * kTolerance))) << d;
+      const double r = unproject(u, 250, 1).norm();
+      EXPECT_TRUE(buffer.visible(unproject(u, 250, d))) << d;
+      for (const double factor : {0.5, 2.0}) {
+        // |r| (z - d) = factor max(1e-4 |r| z, 1e-3): the absolute branch when it is the larger there.
+        double z = d + factor * DepthBuffer::kAbsoluteDepthTolerance / r;
+        if (DepthBuffer::kRelativeDepthTolerance * r * z > DepthBuffer::kAbsoluteDepthTolerance)
+          z = d / (1 - factor * DepthBuffer::kRelativeDepthTolerance);
+        const Vector3d point = unproject(u, 250, z);
+        EXPECT_NEAR(r * (z - d) / reach(point), factor, 1e-6);
+        EXPECT_EQ(buffer.visible(point), factor < 1) << d << " " << u << " " << factor;
+      }
     }
   }
+}
+
+// A bar at z = 2 over [400.3, 402.7] x [100.2, 400.6] (edges between pixel centres) in front of a
+// plane at z = 4 over [300, 500] x [50, 450]: points of the far plane within a pixel of the bar's
+// outline are hidden exactly when their ray meets the bar, that is when their pixel position lies
+// inside it; comparing depths at the nearest centres cannot tell, as two of them show the bar and
+// two the plane the point lies on.
+TEST(DepthBuffer, PointsBesideASilhouetteFollowTheirOwnRay) {
+  const Mesh mesh = merged(frontal_square(400.3, 100.2, 402.7, 400.6, 2), frontal_square(300, 50, 500, 450, 4));
+  const DepthBuffer buffer = rendered(mesh);
+  int hidden = 0, shown = 0;
+  auto check = [&](double u, double v) {
+    const Vector3d point = unproject(u, v, 4);
+    const bool inside = u > 400.3 && u < 402.7 && v > 100.2 && v < 400.6;
+    ASSERT_EQ(hidden_by_ray(mesh, {}, point), inside) << u << ", " << v;
+    EXPECT_EQ(buffer.visible(point), !inside) << u << ", " << v;
+    ++(inside ? hidden : shown);
+  };
+  for (double offset = -0.995; offset < 1; offset += 0.01) {
+    if (std::abs(offset) < 1e-3) continue;  // on the outline: float corners decide
+    for (double v = 110.37; v < 390; v += 7.3) {
+      check(400.3 + offset, v);
+      check(402.7 + offset, v);
+    }
+    for (double u = 400.41; u < 402.7; u += 0.23) {
+      check(u, 100.2 + offset);
+      check(u, 400.6 + offset);
+    }
+  }
+  EXPECT_GT(hidden, 4000);
+  EXPECT_GT(shown, 4000);
+}
+
+// A silhouette seen edge-on: a frontal face at z = 2 over [380, 400.2] x [200, 300] whose right edge
+// is shared by a triangle sloping away to an apex at (400.45, 250), z = 2.3. On screen that triangle
+// is a sliver between the columns of centres 399.5 and 400.5 and covers none, so the ID buffer never
+// names it: the points of a plane at z = 4 behind it are found hidden through the face's edge
+// neighbour. Checked against brute force, with both outcomes present.
+TEST(DepthBuffer, SubPixelSliverBesideAFaceHidesThroughItsEdgeNeighbour) {
+  Mesh mesh;
+  const std::uint32_t a = mesh.add(unproject(380, 200, 2)), b = mesh.add(unproject(400.2, 200, 2)),
+                      c = mesh.add(unproject(400.2, 300, 2)), d = mesh.add(unproject(380, 300, 2)),
+                      apex = mesh.add(unproject(400.45, 250, 2.3));
+  mesh.add_triangle(a, b, c);
+  mesh.add_triangle(a, c, d);
+  mesh.add_triangle(b, apex, c);
+  mesh = merged(mesh, frontal_square(300, 100, 500, 400, 4));
+  const DepthBuffer buffer = rendered(mesh);
+  int hidden = 0, shown = 0, wrong = 0;
+  for (double u = 400.205; u < 400.5; u += 0.01) {
+    for (double v = 201.3; v < 300; v += 1.7) {
+      const Vector3d point = unproject(u, v, 4);
+      const bool expected_hidden = hidden_by_ray(mesh, {}, point);
+      wrong += buffer.visible(point) == expected_hidden;
+      ++(expected_hidden ? hidden : shown);
+    }
+  }
+  EXPECT_EQ(wrong, 0);
+  EXPECT_GT(hidden, 300);
+  EXPECT_GT(shown, 300);
 }
 
 // Dense points on a closed mesh: every point on a face turned towards the camera must be visible
 // (no false hides, at any slant); `hidden_expected` says which of the others must be hidden.
 struct SurfaceCounts {
-  int front = 0, front_hidden = 0, back_checked = 0, back_visible = 0;
+  int front = 0, front_hidden = 0, back_checked = 0, back_visible = 0, grazing = 0, grazing_wrong = 0;
 };
 
 // A UV sphere (poles as single vertices), outward normals from the centre.
@@ -239,7 +330,9 @@ Mesh sphere(const Vector3d& centre, double radius, int rings, int segments) {
 // the exporter samples them (float vertices, double arithmetic). A face is in front when its
 // outward normal m (oriented away from `centre`) has m . (camera - p) > 0; a back point with
 // m^ . (camera - p)^ < -0.3 lies on a ray that crossed the front of the sphere at least
-// 2 r 0.3 earlier and more than a pixel inside its outline, so it must be hidden.
+// 2 r 0.3 earlier and more than a pixel inside its outline, so it must be hidden. Points at grazing
+// slants on either side of the outline (|m^ . (camera - p)^| < 0.05) must agree with brute-force
+// ray casting over the whole mesh.
 TEST(DepthBuffer, SphereShowsItsFrontAndHidesItsBack) {
   const Vector3d centre(0.2, 0.1, 1.0);
   const Mesh mesh = sphere(centre, 0.5, 32, 64);
@@ -259,6 +352,10 @@ TEST(DepthBuffer, SphereShowsItsFrontAndHidesItsBack) {
         const Vector3d p = (i * a + j * b + (n - i - j) * c) / n;
         const double facing = normal.dot((camera - p).normalized());
         const bool shown = visible_point(buffer, pose, p);
+        if (std::abs(facing) < 0.05) {
+          ++counts.grazing;
+          counts.grazing_wrong += shown == hidden_by_ray(mesh, pose, pose.to_camera(p));
+        }
         if (facing > 0) {
           ++counts.front;
           counts.front_hidden += !shown;
@@ -275,6 +372,8 @@ TEST(DepthBuffer, SphereShowsItsFrontAndHidesItsBack) {
   EXPECT_GT(counts.front, 40000);
   EXPECT_GT(counts.back_checked, 40000);
   EXPECT_LT(most_grazing, 0.02);  // the front set reaches grazing slants at the outline
+  EXPECT_EQ(counts.grazing_wrong, 0) << "of " << counts.grazing << " grazing points";
+  EXPECT_GT(counts.grazing, 2000);
 }
 
 // A unit cube's six faces, each sampled on a (2m + 1)^2 grid over the whole face (edges and corners
@@ -335,9 +434,9 @@ TEST(DepthBuffer, CubeSeenObliquelyShowsItsThreeFrontFaces) {
 }
 
 // On a plane slanted 85 degrees from frontal, depth changes by z tan(85 deg) / f, about 1.4% of z,
-// per pixel: comparing a point with its nearest centre alone would hide many points of the surface
-// they lie on; the largest depth of the 2x2 centres hides none.
-TEST(DepthBuffer, SteepSlantNeedsTheLargestOfFourCentres) {
+// per pixel: comparing a point's depth with its nearest centre's would hide many points of the
+// surface they lie on; their rays meet no triangle before them, so the ray test hides none.
+TEST(DepthBuffer, SteepSlantHidesNoPointOfItsOwnSurface) {
   const double angle = 85 * std::numbers::pi / 180;
   const Vector3d p0(0, 0, 3), along(std::cos(angle), 0, std::sin(angle)), down(0, 1, 0);
   Mesh mesh;
@@ -349,9 +448,9 @@ TEST(DepthBuffer, SteepSlantNeedsTheLargestOfFourCentres) {
       const PixelProjection p = project({}, kCamera, p0 + s * along + t * down);
       if (!p.valid) continue;
       ++points;
-      hidden += !buffer.visible(p.u, p.v, p.depth);
+      hidden += !buffer.visible(p0 + s * along + t * down);
       const double nearest = buffer.depth(static_cast<int>(p.u), static_cast<int>(p.v));
-      hidden_by_nearest_centre += p.depth > (1 + kTolerance) * nearest;
+      hidden_by_nearest_centre += p.depth > (1 + 1e-3) * nearest;
     }
   }
   EXPECT_GT(points, 50000);
@@ -379,7 +478,7 @@ TEST(DepthBuffer, TrianglesCrossingTheNearPlaneStillOcclude) {
       // A wall point at this pixel centre is hidden (the plane is nearer than 10 everywhere here:
       // r_x < 0.58 gives z < 4.8).
       ++wall_checked;
-      wall_hidden += !buffer.visible(x + 0.5, y + 0.5, 10);
+      wall_hidden += !buffer.visible(unproject(x + 0.5, y + 0.5, 10));
     }
   }
   EXPECT_EQ(wrong_depth, 0);
@@ -391,18 +490,23 @@ TEST(DepthBuffer, TrianglesCrossingTheNearPlaneStillOcclude) {
 
 TEST(DepthBuffer, PointsOutsideTheImageOrBehindTheCameraAreNotVisible) {
   DepthBuffer buffer(kCamera.width, kCamera.height);
+  EXPECT_FALSE(buffer.visible(unproject(480, 270, 1)));  // no camera before the first render
   buffer.render({}, kCamera, {}, {});
   const double w = kCamera.width, h = kCamera.height;
   // An empty buffer hides nothing that is in the image and in front.
   for (const auto& [u, v] : std::vector<std::pair<double, double>>{{0, 0}, {w - 1e-9, h - 1e-9}, {480, 270}, {0.2, h - 0.2}})
-    EXPECT_TRUE(buffer.visible(u, v, 1)) << u << ", " << v;
+    EXPECT_TRUE(buffer.visible(unproject(u, v, 1))) << u << ", " << v;
   for (const auto& [u, v] : std::vector<std::pair<double, double>>{{-1e-9, 10}, {w, 10}, {10, -0.5}, {10, h}, {NAN, 10}, {10, NAN}})
-    EXPECT_FALSE(buffer.visible(u, v, 1)) << u << ", " << v;
-  for (const double depth : {0.0, -1.0, kInf, -kInf, double(NAN)}) EXPECT_FALSE(buffer.visible(480, 270, depth)) << depth;
+    EXPECT_FALSE(buffer.visible(unproject(u, v, 1))) << u << ", " << v;
+  for (const Vector3d& point : {Vector3d(0, 0, 0), Vector3d(0.1, 0.1, -2), Vector3d(0, 0, kInf), Vector3d(kInf, 0, 1),
+                                Vector3d(0, NAN, 1), Vector3d(0, 0, NAN)})
+    EXPECT_FALSE(buffer.visible(point)) << point.transpose();
   EXPECT_EQ(buffer.depth(0, 0), kInf);
-  // A point behind the camera projects invalid (u = v = 0, depth < 0): not visible either.
-  const PixelProjection behind = project({}, kCamera, Vector3d(0.1, 0.1, -2));
-  EXPECT_FALSE(buffer.visible(behind.u, behind.v, behind.depth));
+  // A render that throws leaves no camera either.
+  PinholeIntrinsics bad = kCamera;
+  bad.fx = -1;
+  EXPECT_THROW(buffer.render({}, bad, {}, {}), std::invalid_argument);
+  EXPECT_FALSE(buffer.visible(unproject(480, 270, 1)));
 }
 
 TEST(DepthBuffer, RenderClearsThePreviousFrame) {
@@ -448,6 +552,7 @@ TEST(DepthBuffer, RejectsBadInput) {
   m = message_of<std::invalid_argument>([&] { buffer.render({}, kCamera, positions, square.triangles); });
   EXPECT_TRUE(contains(m, "vertex 2 is not finite")) << m;
   EXPECT_EQ(buffer.depth(150, 150), kInf);  // a rejected render leaves the buffer cleared
+  EXPECT_FALSE(buffer.visible(unproject(150, 150, 1)));  // and no camera to test points against
 
   EXPECT_THROW(buffer.depth(-1, 0), std::out_of_range);
   EXPECT_THROW(buffer.depth(0, 540), std::out_of_range);
