@@ -25,6 +25,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -390,6 +391,18 @@ TEST(TrajectoriesCliTest, BadInputFailsNamingTheProblemAndWritesNothing) {
     EXPECT_TRUE(contains(result.output, bad.message)) << bad.arguments << "\n" << result.output;
     expect_no_output_named("bad");
   }
+
+  // A character without a skin: SimpleSkin with its skin taken out has nothing to drive.
+  nlohmann::json gltf = nlohmann::json::parse(std::ifstream(std::string(ODYSSEY_SHARED_DIR) + "/assets/characters/SimpleSkin.gltf"));
+  gltf.erase("skins");
+  for (nlohmann::json& node : gltf["nodes"]) node.erase("skin");
+  const fs::path skinless = scratch("skinless.gltf");
+  std::ofstream(skinless) << gltf.dump();
+  const test_support::CliResult no_skin =
+      run("trajectories --motion " + kWalk + " --character " + skinless.string() + " --out " + scratch("bad.npz").string());
+  EXPECT_EQ(no_skin.exit_code, 1) << no_skin.output;
+  EXPECT_TRUE(contains(no_skin.output, skinless.string() + ": not a humanoid rig")) << no_skin.output;
+  expect_no_output_named("bad");
 
   // A motion of no frames: a BVH whose MOTION section says so.
   std::ifstream walk(kWalk);
