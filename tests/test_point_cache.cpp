@@ -32,22 +32,8 @@ namespace {
 using odyssey::test_support::message_of;
 using odyssey::test_support::contains;
 
-// A fresh, empty folder for the current test, so that leftovers can be listed.
-fs::path scratch_dir() {
-  const auto* test = testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir =
-      fs::path(ODYSSEY_SCRATCH_DIR) / "point_cache" / (std::string(test->test_suite_name()) + "." + test->name());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-std::vector<std::string> files_in(const fs::path& dir) {
-  std::vector<std::string> names;
-  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
+fs::path scratch_dir() { return odyssey::test_support::scratch_dir("point_cache"); }
+using odyssey::test_support::files_in;
 
 std::vector<char> read_bytes(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);

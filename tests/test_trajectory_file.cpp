@@ -37,22 +37,8 @@ constexpr std::size_t kFrames = 7;
 constexpr std::size_t kPoints = 5;
 constexpr double kFps = 24;
 
-// A fresh, empty folder for the current test, so that leftovers can be listed.
-fs::path scratch_dir() {
-  const auto* test = testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir =
-      fs::path(ODYSSEY_SCRATCH_DIR) / "trajectory_file" / (std::string(test->test_suite_name()) + "." + test->name());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-std::vector<std::string> files_in(const fs::path& dir) {
-  std::vector<std::string> names;
-  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
+fs::path scratch_dir() { return odyssey::test_support::scratch_dir("trajectory_file"); }
+using odyssey::test_support::files_in;
 
 bool run_python(const fs::path& dir, const std::string& script, const std::vector<std::string>& args) {
   const fs::path path = dir.parent_path() / (dir.filename().string() + ".py");

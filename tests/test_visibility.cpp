@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "test_support.h"
 #include "scene_layouts/visibility.h"
 #include "skeleton/camera.h"
 
@@ -114,18 +115,8 @@ bool hidden_by_ray(const Mesh& mesh, const CameraPose& pose, const Vector3d& cam
   return false;
 }
 
-template <class E, class F>
-std::string message_of(F&& operation) {
-  try {
-    operation();
-  } catch (const E& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no exception of the expected type";
-  return {};
-}
-
-bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+using odyssey::test_support::contains;
+using odyssey::test_support::message_of;
 
 // A frontal square whose corners sit on pixel corners (100, 100) and (300, 300), so its diagonal
 // u = v runs exactly through the centres (i + 0.5, i + 0.5): the two triangles must share them
