@@ -134,11 +134,9 @@ int run_trajectories(const std::vector<std::string>& arguments) {
     camera_json.emplace(*camera_json_path);
     io::write_camera_path_json(camera_json->temp(), *camera);
   }
-  if (camera_json) {
-    commit_all({&npz, &*camera_json});
-  } else {
-    commit_all({&npz});
-  }
+  std::vector<StagedFile*> outputs{&npz};
+  if (camera_json) outputs.push_back(&*camera_json);
+  commit_all(outputs);
   std::printf("timings    %s\n", retarget_job_timings(job).c_str());
   std::printf("wrote      %s (%d frames at %.6g fps)%s%s\n", out_path.c_str(), clip.frame_count(), clip.fps,
               camera_json_path ? ", " : "", camera_json_path ? camera_json_path->c_str() : "");

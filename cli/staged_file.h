@@ -25,7 +25,6 @@ class StagedFile {
   StagedFile(const StagedFile&) = delete;
   StagedFile& operator=(const StagedFile&) = delete;
 
-  const std::string& target() const { return target_; }
   const std::string& temp() const { return temp_; }
 
   void write_text(const std::string& text) const {
