@@ -758,7 +758,8 @@ class BodyBuilder {
     const Vector3d tip = body_.joints[j1 + 2] + l3 * along;
     const double length = (tip - base).dot(along);
     // s along the finger from the block, centre x, y, z, radius (both ways), exponent.
-    const auto key = [&](double s, double radius) {
+    // scale is captured by copy: clang 14 cannot capture a structured binding implicitly.
+    const auto key = [&, scale = scale](double s, double radius) {
       Eigen::VectorXd row(6);
       row << base + s * along, radius * scale, radius * scale, 2.0;
       return row;
