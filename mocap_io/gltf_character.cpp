@@ -16,6 +16,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 
 #include "mocap_io/input_error.h"
 #include "skeleton/rotation.h"
@@ -29,8 +30,11 @@ static_assert(std::endian::native == std::endian::little,
 // Largest ratio - 1 between the singular values of a world linear part that still counts as one
 // uniform scale on a node with joints below it (see the header).
 constexpr double kMaxAnisotropy = 1e-3;
-// An accessor without a buffer view is all zeros: the file does not back its size, so cap it.
-constexpr std::size_t kMaxUnbackedElements = std::size_t(1) << 26;
+// gltf_decode_budget(): a floor for small files, and a factor over the input's bytes.
+constexpr std::uint64_t kDecodeBudgetFloor = std::uint64_t(16) << 20;
+constexpr std::uint64_t kDecodeBudgetPerInputByte = 64;
+// How many components of the JSON path the depth error shows.
+constexpr std::size_t kShownPathComponents = 8;
 constexpr std::uint32_t kGlbMagic = 0x46546C67;      // "glTF"
 constexpr std::uint32_t kGlbJsonChunk = 0x4E4F534A;  // "JSON"
 
@@ -119,10 +123,12 @@ bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, in
   return true;
 }
 
-tinygltf::Model parse_gltf(const std::string& path, std::vector<std::string>& warnings) {
-  const std::vector<unsigned char> bytes = read_whole_file(path);
+tinygltf::Model parse_gltf(const std::string& path, const std::vector<unsigned char>& bytes,
+                           std::vector<std::string>& warnings) {
   const bool binary = bytes.size() >= 4 && u32_at(bytes, 0) == kGlbMagic;
   const std::uint32_t length = binary ? checked_glb_length(path, bytes) : static_cast<std::uint32_t>(bytes.size());
+  const char* text = reinterpret_cast<const char*>(bytes.data());
+  check_gltf_json_depth(path, binary ? std::string_view(text + 20, u32_at(bytes, 12)) : std::string_view(text, length));
   const std::string base_dir = std::filesystem::path(path).parent_path().string();
 
   tinygltf::TinyGLTF parser;
@@ -283,8 +289,9 @@ struct SkinBinding {
 
 class CharacterReader {
  public:
-  CharacterReader(std::string path, tinygltf::Model model, std::vector<std::string> warnings)
-      : path_(std::move(path)), model_(std::move(model)), warnings_(std::move(warnings)) {}
+  CharacterReader(std::string path, tinygltf::Model model, std::vector<std::string> warnings, std::uint64_t decode_budget)
+      : path_(std::move(path)), model_(std::move(model)), warnings_(std::move(warnings)), decode_budget_(decode_budget),
+        decode_budget_left_(decode_budget) {}
 
   Character read() {
     check_required_extensions();
@@ -582,7 +589,7 @@ class CharacterReader {
 
   // Reads accessor `index` as numbers, checking its type, component type, every byte range and
   // its sparse substitutions.
-  Elements read_accessor(int index, const std::string& what, int type, std::initializer_list<int> component_types) const {
+  Elements read_accessor(int index, const std::string& what, int type, std::initializer_list<int> component_types) {
     check_index(index, model_.accessors.size(), what, "accessor");
     const tinygltf::Accessor& accessor = model_.accessors[index];
     const std::string label = what + " (accessor " + std::to_string(index) + ")";
@@ -600,10 +607,7 @@ class CharacterReader {
     elements.count = accessor.count;
     elements.components = components;
     if (accessor.bufferView < 0) {
-      if (accessor.count > kMaxUnbackedElements) {
-        fail(label + " has no buffer view and declares " + std::to_string(accessor.count) + " elements, more than " +
-             std::to_string(kMaxUnbackedElements));
-      }
+      charge_decoding(accessor, label, components);
       elements.values.assign(accessor.count * components, 0.0);
     } else {
       const auto [data, view_length] = buffer_view_bytes(accessor.bufferView, label);
@@ -621,6 +625,7 @@ class CharacterReader {
              std::to_string(element_size) + " bytes, stride " + std::to_string(stride) + ", offset " +
              std::to_string(accessor.byteOffset) + ", view length " + std::to_string(view_length) + ")");
       }
+      charge_decoding(accessor, label, components);
       elements.values.resize(accessor.count * components);
       const int size = component_size(accessor.componentType);
       for (std::size_t e = 0; e < accessor.count; ++e) {
@@ -632,6 +637,21 @@ class CharacterReader {
     }
     if (accessor.sparse.isSparse) apply_sparse(accessor, label, element_size, elements);
     return elements;
+  }
+
+  // Takes the accessor's doubles from the decoding budget, or fails before they are allocated.
+  void charge_decoding(const tinygltf::Accessor& accessor, const std::string& label, int components) {
+    const std::uint64_t per_element = std::uint64_t(components) * sizeof(double);
+    if (accessor.count <= decode_budget_left_ / per_element) {
+      decode_budget_left_ -= accessor.count * per_element;
+      return;
+    }
+    const bool representable = accessor.count <= std::numeric_limits<std::uint64_t>::max() / per_element;
+    fail(label + (accessor.bufferView < 0 ? " has no buffer view and" : "") + " declares " +
+         std::to_string(accessor.count) + " " + type_name(accessor.type) + " elements (" +
+         (representable ? std::to_string(accessor.count * per_element) : "over 2^64") +
+         " bytes as doubles): decoding its accessors would take more than " + std::to_string(decode_budget_) +
+         " bytes, this file's budget (16 MiB + 64 per byte of the file and its external buffers)");
   }
 
   // Indices (vertex or joint) are plain integers; a normalised accessor would read them as fractions.
@@ -698,7 +718,7 @@ class CharacterReader {
   }
 
   // inverse_bind_k = [R | t]^-1 G(joint_k) IBM_k (see the header).
-  SkinBinding bind_skin(int skin_index) const {
+  SkinBinding bind_skin(int skin_index) {
     const tinygltf::Skin& skin = model_.skins[skin_index];
     const std::string label = "skin " + std::to_string(skin_index) + " inverse bind matrices";
     const std::size_t joint_count = skin.joints.size();
@@ -803,7 +823,7 @@ class CharacterReader {
     }
   }
 
-  void read_triangles(const tinygltf::Primitive& primitive, const std::string& label, CharacterMesh& out) const {
+  void read_triangles(const tinygltf::Primitive& primitive, const std::string& label, CharacterMesh& out) {
     const std::size_t vertex_count = out.positions.size();
     if (primitive.indices < 0) {
       if (vertex_count % 3 != 0) {
@@ -918,14 +938,90 @@ class CharacterReader {
   std::vector<double> scale_;
   std::vector<int> joint_of_node_;
   std::vector<SkinBinding> bindings_;
+  const std::uint64_t decode_budget_;
+  std::uint64_t decode_budget_left_;
 };
 
 }  // namespace
 
+// Tracks, for the outermost kShownPathComponents open arrays and objects, the member being read
+// (an object's last key as written, an array's element index), for the message.
+void check_gltf_json_depth(const std::string& path, std::string_view json) {
+  struct Level {
+    bool object = false;
+    bool expecting_key = false;
+    std::string key;
+    std::size_t index = 0;
+  };
+  constexpr std::size_t kMaxShownKey = 64;
+  std::vector<Level> shown;  // levels 1 .. min(depth, kShownPathComponents)
+  std::size_t depth = 0;
+  bool in_string = false, escaped = false, string_is_key = false;
+  for (std::size_t at = 0; at < json.size(); ++at) {
+    const char c = json[at];
+    Level* current = depth >= 1 && depth <= shown.size() ? &shown[depth - 1] : nullptr;
+    if (in_string) {
+      if (!escaped && c == '"') {
+        in_string = false;
+      } else {
+        escaped = !escaped && c == '\\';
+        if (string_is_key && current->key.size() < kMaxShownKey) current->key += c;
+      }
+      continue;
+    }
+    switch (c) {
+      case '"':
+        in_string = true;
+        string_is_key = current && current->object && current->expecting_key;
+        if (string_is_key) {
+          current->key.clear();
+          current->expecting_key = false;
+        }
+        break;
+      case '[':
+      case '{':
+        if (++depth > std::size_t(kMaxGltfJsonDepth)) {
+          std::string where;
+          for (const Level& level : shown) where += level.object ? (where.empty() ? "" : ".") + level.key
+                                                                 : "[" + std::to_string(level.index) + "]";
+          if (depth - 1 > shown.size()) where += "...";
+          throw InputError(path, "JSON nests arrays and objects deeper than " + std::to_string(kMaxGltfJsonDepth) +
+                                     " levels at " + where + " (byte " + std::to_string(at) +
+                                     "); real glTF files need fewer than 20");
+        }
+        if (depth <= kShownPathComponents) shown.push_back({c == '{', c == '{', "", 0});
+        break;
+      case ']':
+      case '}':
+        if (depth == 0) break;  // unbalanced: the parser will say so
+        if (depth <= shown.size()) shown.pop_back();
+        --depth;
+        break;
+      case ',':
+        if (current && current->object) current->expecting_key = true;
+        if (current && !current->object) ++current->index;
+        break;
+      default:
+        break;
+    }
+  }
+}
+
+std::uint64_t gltf_decode_budget(std::uint64_t input_bytes) {
+  const std::uint64_t most = (std::numeric_limits<std::uint64_t>::max() - kDecodeBudgetFloor) / kDecodeBudgetPerInputByte;
+  return kDecodeBudgetFloor + kDecodeBudgetPerInputByte * std::min(input_bytes, most);
+}
+
 Character load_character(const std::string& path) {
   std::vector<std::string> warnings;
-  tinygltf::Model model = parse_gltf(path, warnings);
-  return CharacterReader(path, std::move(model), std::move(warnings)).read();
+  const std::vector<unsigned char> bytes = read_whole_file(path);
+  tinygltf::Model model = parse_gltf(path, bytes, warnings);
+  // Input: the file and the external buffers it names (a data URI's bytes are in the file).
+  std::uint64_t input_bytes = bytes.size();
+  for (const tinygltf::Buffer& buffer : model.buffers) {
+    if (!buffer.uri.empty() && buffer.uri.rfind("data:", 0) != 0) input_bytes += buffer.data.size();
+  }
+  return CharacterReader(path, std::move(model), std::move(warnings), gltf_decode_budget(input_bytes)).read();
 }
 
 }  // namespace odyssey::io

@@ -66,17 +66,38 @@
 // (finite, weights not negative, joint slots inside the skin, vertex indices inside the mesh) is
 // checked, and a problem throws InputError(path, problem). A node with two parents or a cycle in
 // the node hierarchy is an error. An accessor without a buffer view reads as zeros (then its
-// sparse values, if any); such an accessor may declare at most 2^26 elements, so a few bytes of
-// JSON cannot make the loader allocate gigabytes. Files that require Draco or meshopt geometry
+// sparse values, if any). Decoding costs bytes the file may not hold (an accessor without a buffer
+// view, one mesh shown by many nodes), so all the accessors a load decodes may take at most
+// gltf_decode_budget() bytes as doubles, checked before anything is allocated; and JSON nested
+// deeper than kMaxGltfJsonDepth is refused before tinygltf, whose JSON-to-value conversion
+// recurses, sees it. Files that require Draco or meshopt geometry
 // compression are rejected. tinygltf's warnings (for example an external texture that is missing)
 // go into Character::warnings; images are never decoded.
 #pragma once
 
+#include <cstdint>
 #include <string>
+#include <string_view>
 
 #include "skeleton/character.h"
 
 namespace odyssey::io {
+
+// Deepest nesting of JSON arrays and objects a glTF file may have, the root object being level 1.
+// Real files need fewer than 20 levels; 128 leaves room for deep `extras`, and tinygltf's
+// recursion overflows the stack only thousands of levels down.
+inline constexpr int kMaxGltfJsonDepth = 128;
+
+// Throws InputError(path, ...) naming the JSON path and byte offset where `json` (a .gltf, or a
+// GLB's JSON chunk) opens an array or object deeper than kMaxGltfJsonDepth. One linear pass that
+// skips string literals (escapes included), in constant memory; nothing else about the text is
+// checked (the parser does that).
+void check_gltf_json_depth(const std::string& path, std::string_view json);
+
+// Bytes that decoding one file's accessors may take in all, in one load (as doubles) or one GLB
+// export (as copies and doubles): 16 MiB plus 64 per byte of input (the file and its external
+// buffers), so a small file cannot cost gigabytes.
+std::uint64_t gltf_decode_budget(std::uint64_t input_bytes);
 
 // Loads a .gltf or .glb (told apart by the GLB magic bytes, not by the extension). Character.name
 // is the file's stem. Throws InputError naming the file for anything it cannot read exactly.

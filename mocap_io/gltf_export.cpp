@@ -21,6 +21,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "mocap_io/gltf_character.h"
 #include "mocap_io/input_error.h"
 #include "mocap_io/output_file.h"
 #include "skeleton/rotation.h"
@@ -40,8 +41,6 @@ constexpr double kMaxShear = 1e-4;
 // The character's rest joint positions must match the file's to this, relative to its size:
 // both come from the same doubles, so only a different file can miss it.
 constexpr double kRestMatchTolerance = 1e-6;
-// An accessor without a buffer view is all zeros: the file does not back its size, so cap it.
-constexpr std::size_t kMaxUnbackedElements = std::size_t(1) << 26;
 // The exported camera's near plane, metres (see the header).
 constexpr double kCameraNear = 0.01;
 constexpr std::uint32_t kGlbMagic = 0x46546C67;      // "glTF"
@@ -97,6 +96,7 @@ bool keep_image_bytes(tinygltf::Image*, const int index, std::string*, std::stri
 struct SourceFile {
   tinygltf::Model model;
   std::vector<std::vector<unsigned char>> image_bytes;  // per image index; empty when unread
+  std::uint64_t input_bytes = 0;                        // the file's and its external buffers'
 };
 
 SourceFile read_source(const std::string& path) {
@@ -107,6 +107,8 @@ SourceFile read_source(const std::string& path) {
   if (bytes.size() > kMaxGlbBytes) throw InputError(path, "is 4 GiB or larger");
   const bool binary = bytes.size() >= 4 && u32_at(bytes, 0) == kGlbMagic;
   const std::uint32_t length = binary ? checked_glb_length(path, bytes) : static_cast<std::uint32_t>(bytes.size());
+  const char* text = reinterpret_cast<const char*>(bytes.data());
+  check_gltf_json_depth(path, binary ? std::string_view(text + 20, u32_at(bytes, 12)) : std::string_view(text, length));
   const std::string base_dir = std::filesystem::path(path).parent_path().string();
 
   SourceFile source;
@@ -122,6 +124,10 @@ SourceFile read_source(const std::string& path) {
     throw InputError(path, std::string("not a readable glTF file: ") + e.what());
   }
   if (!parsed) throw InputError(path, "not a readable glTF file: " + (error.empty() ? warning : error));
+  source.input_bytes = bytes.size();
+  for (const tinygltf::Buffer& buffer : source.model.buffers) {
+    if (!buffer.uri.empty() && buffer.uri.rfind("data:", 0) != 0) source.input_bytes += buffer.data.size();
+  }
   return source;
 }
 
@@ -197,6 +203,7 @@ class AnimatedGlbBuilder {
     SourceFile source = read_source(path_);
     model_ = std::move(source.model);
     image_bytes_ = std::move(source.image_bytes);
+    decode_budget_ = decode_budget_left_ = gltf_decode_budget(source.input_bytes);
   }
 
   std::string build() {
@@ -209,7 +216,7 @@ class AnimatedGlbBuilder {
     add_animation();
     rewrite_weights();
     embed_images();
-    drop_unused_and_merge_buffers();
+    drop_unused_and_repack_buffers();
     refresh_declared_bounds();
     model_.asset.generator = "odyssey animated GLB writer";
 
@@ -436,25 +443,25 @@ class AnimatedGlbBuilder {
     return map;
   }
 
-  // Appends bytes to the staging buffer as a new buffer view; returns its index.
-  int stage_view(const unsigned char* data, std::size_t size, int target) {
+  // Appends bytes to the staging buffer as a new buffer view; returns its index. Data the writer
+  // makes counts as input in the decoding budget.
+  int stage_view(const unsigned char* data, std::size_t size) {
     std::vector<unsigned char>& buffer = model_.buffers[staging_buffer_].data;
     buffer.resize((buffer.size() + 3) / 4 * 4, 0);
     tinygltf::BufferView view;
     view.buffer = staging_buffer_;
     view.byteOffset = buffer.size();
     view.byteLength = size;
-    view.target = target;
     buffer.insert(buffer.end(), data, data + size);
+    decode_budget_left_ += gltf_decode_budget(size) - gltf_decode_budget(0);
     model_.bufferViews.push_back(view);
     return static_cast<int>(model_.bufferViews.size()) - 1;
   }
 
   // A float accessor over `values`, `type` (VEC3, ...) elements, in its own buffer view.
-  int stage_float_accessor(const std::vector<float>& values, int type, int target) {
+  int stage_float_accessor(const std::vector<float>& values, int type) {
     tinygltf::Accessor accessor;
-    accessor.bufferView = stage_view(reinterpret_cast<const unsigned char*>(values.data()), values.size() * sizeof(float),
-                                     target);
+    accessor.bufferView = stage_view(reinterpret_cast<const unsigned char*>(values.data()), values.size() * sizeof(float));
     accessor.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
     accessor.type = type;
     accessor.count = values.size() / tinygltf::GetNumComponentsInType(type);
@@ -492,7 +499,7 @@ class AnimatedGlbBuilder {
     }
     tinygltf::Animation animation;
     animation.name = options_.animation_name;
-    const int time_accessor = stage_float_accessor(times, TINYGLTF_TYPE_SCALAR, 0);
+    const int time_accessor = stage_float_accessor(times, TINYGLTF_TYPE_SCALAR);
     model_.accessors[time_accessor].minValues = {times.front()};
     model_.accessors[time_accessor].maxValues = {times.back()};
 
@@ -509,7 +516,7 @@ class AnimatedGlbBuilder {
         const std::array<double, 4> xyzw = {q.x(), q.y(), q.z(), q.w()};
         for (int c = 0; c < 4; ++c) rotations[std::size_t(f) * 4 + c] = static_cast<float>(xyzw[c]);
       }
-      add_channel(animation, add_sampler(animation, time_accessor, stage_float_accessor(rotations, TINYGLTF_TYPE_VEC4, 0)),
+      add_channel(animation, add_sampler(animation, time_accessor, stage_float_accessor(rotations, TINYGLTF_TYPE_VEC4)),
                   map.node, "rotation");
 
       if (character_.skeleton.parent(j) >= 0 && translation_slot[j] < 0) continue;
@@ -522,7 +529,7 @@ class AnimatedGlbBuilder {
         for (int c = 0; c < 3; ++c) translations[std::size_t(f) * 3 + c] = static_cast<float>(u(c));
       }
       add_channel(animation,
-                  add_sampler(animation, time_accessor, stage_float_accessor(translations, TINYGLTF_TYPE_VEC3, 0)),
+                  add_sampler(animation, time_accessor, stage_float_accessor(translations, TINYGLTF_TYPE_VEC3)),
                   map.node, "translation");
     }
     if (options_.camera) add_camera(animation, time_accessor);
@@ -577,30 +584,46 @@ class AnimatedGlbBuilder {
       check_index(scene, model_.scenes.size(), "the default scene", "scene");
       model_.scenes[scene].nodes.push_back(camera_node);
     }
-    add_channel(animation, add_sampler(animation, time_accessor, stage_float_accessor(translations, TINYGLTF_TYPE_VEC3, 0)),
+    add_channel(animation, add_sampler(animation, time_accessor, stage_float_accessor(translations, TINYGLTF_TYPE_VEC3)),
                 camera_node, "translation");
-    add_channel(animation, add_sampler(animation, time_accessor, stage_float_accessor(rotations, TINYGLTF_TYPE_VEC4, 0)),
+    add_channel(animation, add_sampler(animation, time_accessor, stage_float_accessor(rotations, TINYGLTF_TYPE_VEC4)),
                 camera_node, "rotation");
   }
 
-  // An accessor's numbers, `components` a element, with its sparse substitutions applied; every
-  // index and byte range checked. Normalised integers read as fractions unless `as_stored`.
-  std::vector<double> accessor_numbers(int index, const std::string& what, int type,
-                                       std::initializer_list<int> component_types, bool as_stored = false) const {
+  // An element's bytes: its components', except that each column of a MAT2 or MAT3 of 1- or 2-byte
+  // components is padded to 4 bytes, as glTF lays them out. 0 for an unknown type.
+  static std::size_t element_size(const tinygltf::Accessor& accessor) {
+    const int size = tinygltf::GetComponentSizeInBytes(accessor.componentType);
+    const int components = tinygltf::GetNumComponentsInType(accessor.type);
+    if (size <= 0 || components <= 0) return 0;
+    const int columns = accessor.type == TINYGLTF_TYPE_MAT2   ? 2
+                        : accessor.type == TINYGLTF_TYPE_MAT3 ? 3
+                        : accessor.type == TINYGLTF_TYPE_MAT4 ? 4
+                                                              : 1;
+    const std::size_t column = std::size_t(components / columns) * size;
+    return columns == 1 ? column : columns * ((column + 3) / 4 * 4);
+  }
+
+  // Takes count x bytes_per_element from the decoding budget, or fails before they are allocated.
+  void charge_decoding(const tinygltf::Accessor& accessor, const std::string& label, std::uint64_t bytes_per_element) {
+    if (accessor.count <= decode_budget_left_ / bytes_per_element) {
+      decode_budget_left_ -= accessor.count * bytes_per_element;
+      return;
+    }
+    fail(label + (accessor.bufferView < 0 ? " has no buffer view and" : "") + " declares " +
+         std::to_string(accessor.count) + " elements of " + std::to_string(bytes_per_element) +
+         " bytes: decoding its accessors would take more than " + std::to_string(decode_budget_) +
+         " bytes, this file's budget (16 MiB + 64 per byte of the file and its external buffers)");
+  }
+
+  // The accessor's elements as stored, tightly packed (element_size() bytes each), with its sparse
+  // substitutions applied; zeros where it has no buffer view. Every index and byte range checked.
+  std::vector<unsigned char> stored_elements(int index, const std::string& what) {
     check_index(index, model_.accessors.size(), what, "accessor");
     const tinygltf::Accessor& accessor = model_.accessors[index];
     const std::string label = what + " (accessor " + std::to_string(index) + ")";
-    const int components = tinygltf::GetNumComponentsInType(type);
-    if (accessor.type != type ||
-        std::find(component_types.begin(), component_types.end(), accessor.componentType) == component_types.end()) {
-      fail(label + " has an element or component type this writer does not read there");
-    }
-    if (accessor.bufferView < 0 && accessor.count > kMaxUnbackedElements) {
-      fail(label + " has no buffer view and declares " + std::to_string(accessor.count) + " elements");
-    }
-    const bool normalized = accessor.normalized && !as_stored;
-    const int size = tinygltf::GetComponentSizeInBytes(accessor.componentType);
-    const std::size_t element_size = std::size_t(components) * size;
+    const std::size_t size = element_size(accessor);
+    if (size == 0) fail(label + " has an unknown element or component type");
     const auto view_bytes = [&](int view, const std::string& part) -> std::pair<const unsigned char*, std::size_t> {
       check_index(view, model_.bufferViews.size(), part, "buffer view");
       const tinygltf::BufferView& buffer_view = model_.bufferViews[view];
@@ -612,22 +635,24 @@ class AnimatedGlbBuilder {
       return {buffer.data() + buffer_view.byteOffset, buffer_view.byteLength};
     };
 
-    std::vector<double> values(accessor.count * components, 0.0);
+    std::vector<unsigned char> elements;
     if (accessor.bufferView >= 0) {
       const auto [data, length] = view_bytes(accessor.bufferView, label);
       const std::size_t stride = model_.bufferViews[accessor.bufferView].byteStride
                                      ? model_.bufferViews[accessor.bufferView].byteStride
-                                     : element_size;
-      if (accessor.count > 0 && (stride < element_size || !fits(accessor.byteOffset, element_size, length) ||
-                                 accessor.count - 1 > (length - accessor.byteOffset - element_size) / stride)) {
+                                     : size;
+      if (accessor.count > 0 && (stride < size || !fits(accessor.byteOffset, size, length) ||
+                                 accessor.count - 1 > (length - accessor.byteOffset - size) / stride)) {
         fail(label + " reaches past the end of its buffer view");
       }
+      charge_decoding(accessor, label, size);
+      elements.resize(accessor.count * size);
       for (std::size_t e = 0; e < accessor.count; ++e) {
-        for (int c = 0; c < components; ++c) {
-          values[e * components + c] =
-              component_at(data + accessor.byteOffset + e * stride + c * size, accessor.componentType, normalized);
-        }
+        std::memcpy(elements.data() + e * size, data + accessor.byteOffset + e * stride, size);
       }
+    } else {
+      charge_decoding(accessor, label, size);
+      elements.assign(accessor.count * size, 0);
     }
     if (accessor.sparse.isSparse) {
       const auto& sparse = accessor.sparse;
@@ -640,18 +665,38 @@ class AnimatedGlbBuilder {
            index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT) ||
           sparse.indices.byteOffset < 0 || sparse.values.byteOffset < 0 ||
           !fits(sparse.indices.byteOffset, count * index_size, index_length) ||
-          !fits(sparse.values.byteOffset, count * element_size, value_length)) {
+          !fits(sparse.values.byteOffset, count * size, value_length)) {
         fail(label + " has sparse storage that is malformed or reaches past its buffer views");
       }
       for (std::size_t k = 0; k < count; ++k) {
         const double element = component_at(index_data + sparse.indices.byteOffset + k * index_size, index_type, false);
         if (element >= static_cast<double>(accessor.count)) fail(label + " has a sparse index past its elements");
-        for (int c = 0; c < components; ++c) {
-          values[std::size_t(element) * components + c] =
-              component_at(value_data + sparse.values.byteOffset + k * element_size + c * size, accessor.componentType,
-                           normalized);
-        }
+        std::memcpy(elements.data() + std::size_t(element) * size, value_data + sparse.values.byteOffset + k * size, size);
       }
+    }
+    return elements;
+  }
+
+  // An accessor's numbers, its components in a row per element, with its sparse substitutions
+  // applied. Normalised integers read as fractions unless `as_stored`.
+  std::vector<double> accessor_numbers(int index, const std::string& what, int type,
+                                       std::initializer_list<int> component_types, bool as_stored = false) {
+    check_index(index, model_.accessors.size(), what, "accessor");
+    const tinygltf::Accessor& accessor = model_.accessors[index];
+    const std::string label = what + " (accessor " + std::to_string(index) + ")";
+    const int components = tinygltf::GetNumComponentsInType(type);
+    const int size = tinygltf::GetComponentSizeInBytes(accessor.componentType);
+    if (accessor.type != type ||
+        std::find(component_types.begin(), component_types.end(), accessor.componentType) == component_types.end() ||
+        element_size(accessor) != std::size_t(components) * size) {
+      fail(label + " has an element or component type this writer does not read there");
+    }
+    const std::vector<unsigned char> stored = stored_elements(index, what);
+    charge_decoding(accessor, label, components * sizeof(double));
+    const bool normalized = accessor.normalized && !as_stored;
+    std::vector<double> values(accessor.count * components);
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      values[i] = component_at(stored.data() + i * size, accessor.componentType, normalized);
     }
     return values;
   }
@@ -659,7 +704,7 @@ class AnimatedGlbBuilder {
   // Float weights over all sets of one primitive, each vertex summing to 1 (see the header).
   std::vector<std::vector<float>> normalised_weights(const std::vector<int>& joint_accessors,
                                                      const std::vector<int>& weight_accessors, std::size_t slot_limit,
-                                                     const std::string& label) const {
+                                                     const std::string& label) {
     const std::size_t sets = joint_accessors.size();
     std::vector<std::vector<double>> joints(sets), weights(sets);
     for (std::size_t s = 0; s < sets; ++s) {
@@ -752,7 +797,7 @@ class AnimatedGlbBuilder {
         auto [entry, added] = rewritten.try_emplace({joint_accessors, weight_accessors});
         if (added) {
           for (const std::vector<float>& set : normalised_weights(joint_accessors, weight_accessors, slot_limit[m], label)) {
-            entry->second.push_back(stage_float_accessor(set, TINYGLTF_TYPE_VEC4, TINYGLTF_TARGET_ARRAY_BUFFER));
+            entry->second.push_back(stage_float_accessor(set, TINYGLTF_TYPE_VEC4));
           }
         }
         for (std::size_t set = 0; set < entry->second.size(); ++set) {
@@ -774,16 +819,23 @@ class AnimatedGlbBuilder {
       const std::string mime_type = image_mime_type(bytes);
       if (mime_type.empty()) fail(label + " is not PNG, JPEG, KTX2 or WebP data");
       if (image.bufferView < 0) {
-        image.bufferView = stage_view(bytes.data(), bytes.size(), 0);
+        image.bufferView = stage_view(bytes.data(), bytes.size());
         image.uri.clear();
       }
       image.mimeType = mime_type;
     }
   }
 
-  // Keeps the accessors and buffer views something refers to, renumbered in their old order, and
-  // copies the views' bytes into one buffer, buffers[0] with no uri: the GLB's binary chunk.
-  void drop_unused_and_merge_buffers() {
+  // Keeps the accessors something refers to, renumbered in their old order, and writes every
+  // buffer view afresh into one buffer, buffers[0] with no uri (the GLB's binary chunk), whatever
+  // the input's layout (interleaved or strided views, views shared by accessors, sparse storage,
+  // buffers nothing uses): each accessor with data gets a view of its own holding its elements
+  // tightly packed, sparse substitutions applied, and each image one holding its bytes. Views of
+  // vertex attributes and indices carry their target; only a vertex attribute whose elements are
+  // not a multiple of 4 bytes gets a byteStride (the element rounded up to 4 bytes, the alignment
+  // glTF requires of vertex attributes). An accessor with neither a buffer view nor sparse
+  // storage stays so: all zeros, nothing to store.
+  void drop_unused_and_repack_buffers() {
     const auto for_each_accessor_reference = [&](const std::function<void(int&)>& visit) {
       for (tinygltf::Mesh& mesh : model_.meshes) {
         for (tinygltf::Primitive& primitive : mesh.primitives) {
@@ -806,39 +858,58 @@ class AnimatedGlbBuilder {
     };
     model_.accessors = kept(model_.accessors, "accessor", for_each_accessor_reference);
 
-    const auto for_each_view_reference = [&](const std::function<void(int&)>& visit) {
-      for (tinygltf::Accessor& accessor : model_.accessors) {
-        if (accessor.bufferView >= 0) visit(accessor.bufferView);
-        if (accessor.sparse.isSparse) {
-          visit(accessor.sparse.indices.bufferView);
-          visit(accessor.sparse.values.bufferView);
+    std::vector<int> target(model_.accessors.size(), 0);
+    for (const tinygltf::Mesh& mesh : model_.meshes) {
+      for (const tinygltf::Primitive& primitive : mesh.primitives) {
+        for (const auto& attribute : primitive.attributes) target[attribute.second] = TINYGLTF_TARGET_ARRAY_BUFFER;
+        for (const auto& morph : primitive.targets) {
+          for (const auto& attribute : morph) target[attribute.second] = TINYGLTF_TARGET_ARRAY_BUFFER;
         }
+        if (primitive.indices >= 0) target[primitive.indices] = TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER;
       }
-      for (tinygltf::Image& image : model_.images) {
-        if (image.bufferView >= 0) visit(image.bufferView);
-      }
-    };
-    model_.bufferViews = kept(model_.bufferViews, "buffer view", for_each_view_reference);
-
-    tinygltf::Buffer merged;
-    for (std::size_t v = 0; v < model_.bufferViews.size(); ++v) {
-      tinygltf::BufferView& view = model_.bufferViews[v];
-      check_index(view.buffer, model_.buffers.size(), "buffer view " + std::to_string(v), "buffer");
-      const std::vector<unsigned char>& source = model_.buffers[view.buffer].data;
-      if (!fits(view.byteOffset, view.byteLength, source.size())) {
-        fail("buffer view " + std::to_string(v) + " lies outside buffer " + std::to_string(view.buffer));
-      }
-      // The view starts at the same offset modulo 4 as before, so every accessor in it keeps
-      // the alignment to its component size that glTF requires.
-      std::size_t start = merged.data.size();
-      start += (view.byteOffset % 4 + 4 - start % 4) % 4;
-      merged.data.resize(start, 0);
-      merged.data.insert(merged.data.end(), source.begin() + view.byteOffset,
-                         source.begin() + view.byteOffset + view.byteLength);
-      view.buffer = 0;
-      view.byteOffset = start;
     }
-    model_.buffers = {std::move(merged)};
+    tinygltf::Buffer packed;
+    std::vector<tinygltf::BufferView> views;
+    // `count` elements of `size` bytes, `stride` bytes apart in a new view at a 4-byte boundary.
+    const auto append_view = [&](const unsigned char* data, std::size_t count, std::size_t size, std::size_t stride,
+                                 int view_target) {
+      tinygltf::BufferView view;
+      view.buffer = 0;
+      view.byteOffset = (packed.data.size() + 3) / 4 * 4;
+      view.byteLength = count * stride;
+      view.byteStride = stride == size ? 0 : stride;
+      view.target = view_target;
+      packed.data.resize(view.byteOffset + view.byteLength, 0);
+      for (std::size_t e = 0; e < count; ++e) {
+        std::memcpy(packed.data.data() + view.byteOffset + e * stride, data + e * size, size);
+      }
+      views.push_back(view);
+      return static_cast<int>(views.size()) - 1;
+    };
+    for (std::size_t a = 0; a < model_.accessors.size(); ++a) {
+      tinygltf::Accessor& accessor = model_.accessors[a];
+      if (accessor.bufferView < 0 && !accessor.sparse.isSparse) continue;
+      const std::vector<unsigned char> elements = stored_elements(int(a), "accessor " + std::to_string(a));
+      const std::size_t size = element_size(accessor);
+      const std::size_t stride = target[a] == TINYGLTF_TARGET_ARRAY_BUFFER ? (size + 3) / 4 * 4 : size;
+      accessor.bufferView = append_view(elements.data(), accessor.count, size, stride, target[a]);
+      accessor.byteOffset = 0;
+      accessor.sparse.isSparse = false;
+      accessor.sparse.count = 0;
+    }
+    for (std::size_t i = 0; i < model_.images.size(); ++i) {
+      tinygltf::Image& image = model_.images[i];
+      if (image.bufferView < 0) continue;
+      const std::string label = "image " + std::to_string(i);
+      check_index(image.bufferView, model_.bufferViews.size(), label, "buffer view");
+      const tinygltf::BufferView& view = model_.bufferViews[image.bufferView];
+      check_index(view.buffer, model_.buffers.size(), label + " buffer view", "buffer");
+      const std::vector<unsigned char>& source = model_.buffers[view.buffer].data;
+      if (!fits(view.byteOffset, view.byteLength, source.size())) fail(label + ": its buffer view lies outside its buffer");
+      image.bufferView = append_view(source.data() + view.byteOffset, view.byteLength, 1, 1, 0);
+    }
+    model_.bufferViews = std::move(views);
+    model_.buffers = {std::move(packed)};
   }
 
   // Accessor min and max must equal the data's per-component extremes (in stored units: the
@@ -908,7 +979,8 @@ class AnimatedGlbBuilder {
   std::vector<std::vector<unsigned char>> image_bytes_;
   std::vector<int> parent_;  // per node, -1 for a root node
   std::vector<Eigen::Matrix4d> world_;
-  int staging_buffer_ = -1;  // where new data waits until the buffers are merged
+  int staging_buffer_ = -1;  // where new data waits until the buffers are repacked
+  std::uint64_t decode_budget_ = 0, decode_budget_left_ = 0;  // see gltf_decode_budget()
 };
 
 void check_clip_fits_character(const Character& character, const Clip& clip) {

@@ -12,14 +12,21 @@
 // so interpolation between frames takes the short way. Joint nodes written as a `matrix` are
 // rewritten as translation, rotation and scale (glTF animates only TRS nodes); a matrix with
 // shear cannot be, and is rejected. Static node scale stays on the nodes.
-// All data goes into one buffer, the GLB's binary chunk: external and data-URI buffers and
-// images are embedded (images as buffer views, their MIME type read from their magic bytes),
-// and accessors and buffer views nothing refers to any more (the old animations') are dropped.
+// All data goes into one buffer, the GLB's binary chunk, and every buffer view is written afresh,
+// whatever the input's layout: each accessor with data gets a view of its own with its elements
+// tightly packed and its sparse substitutions applied (no sparse storage is written), views of
+// vertex attributes and indices carry their target, and only a vertex attribute whose elements
+// are not a multiple of 4 bytes has a byteStride (padding each element to 4 bytes, as glTF
+// requires). Images, external or data-URI, are embedded as views of their own (their MIME type
+// read from their magic bytes); accessors nothing refers to any more (the old animations'),
+// buffer views and buffers are dropped.
 // Accessor min/max are recomputed from the data wherever declared (and on every POSITION, which
 // must declare them), since exporters often get them slightly wrong and the validator counts a
 // mismatch as an error.
 // Files using extensions whose payload refers to accessors or buffer views (Draco, meshopt, GPU
-// instancing) are rejected: their references could not be renumbered.
+// instancing) are rejected: their references could not be renumbered. Like load_character(), the
+// writer refuses JSON nested deeper than kMaxGltfJsonDepth and decodes at most
+// gltf_decode_budget() bytes of the file's accessors (data it makes itself counts as input).
 //
 // Skin weights. The validator requires the weights of a vertex, over all WEIGHTS_n sets, to sum
 // to 1 within 2e-7 per non-zero weight (summed in float32); exporters often store quantised or
