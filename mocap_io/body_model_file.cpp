@@ -140,9 +140,7 @@ std::vector<int> parents_from_kintree(const ModelArchive& archive, const std::ve
   return parents;
 }
 
-}  // namespace
-
-BodyModel load_body_model(const std::string& path) {
+BodyModel read_body_model(const std::string& path) {
   const ModelArchive archive(path);
   BodyModel model;
 
@@ -241,6 +239,12 @@ BodyModel load_body_model(const std::string& path) {
     archive.fail(error.what());
   }
   return model;
+}
+
+}  // namespace
+
+BodyModel load_body_model(const std::string& path) {
+  return naming_out_of_memory(path, [&] { return read_body_model(path); });
 }
 
 }  // namespace odyssey::io

@@ -3,6 +3,7 @@
 // batch can report the file and go on.
 #pragma once
 
+#include <new>
 #include <stdexcept>
 #include <string>
 
@@ -20,5 +21,19 @@ class InputError : public std::runtime_error {
   std::string file_;
   std::string problem_;
 };
+
+// Runs a loader of `file`, turning a failed allocation into an InputError naming the file: a
+// file whose sizes are all checked against its data can still be too large for the machine.
+// std::length_error is a request past what a container can address, so it counts too.
+template <class Read>
+auto naming_out_of_memory(const std::string& file, Read&& read) -> decltype(read()) {
+  try {
+    return read();
+  } catch (const std::bad_alloc&) {
+    throw InputError(file, "out of memory reading the file");
+  } catch (const std::length_error&) {
+    throw InputError(file, "out of memory reading the file (a size past what can be allocated)");
+  }
+}
 
 }  // namespace odyssey::io
