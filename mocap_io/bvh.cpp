@@ -332,6 +332,27 @@ class BvhParser {
     return clip;
   }
 
+  // The clip stores a rotation for every joint every frame, channels or not, so joints without
+  // channels cost memory their frames do not pay for (4,000 of them over 20,000 one-number
+  // frames: 2.5 GB from a 137 KB file). The clip may take at most kStoragePerFileByte times the
+  // file's size plus kStorageSlack; a dense file needs at most 16 times (a one-digit rotation
+  // channel, 2 bytes, becomes a 32-byte quaternion). Checked before anything is reserved.
+  static constexpr std::size_t kStoragePerFileByte = 32;
+  static constexpr std::size_t kStorageSlack = std::size_t{64} << 20;
+
+  void check_clip_storage(std::size_t frames, std::size_t translated_joints) const {
+    const std::size_t joints = joints_.size();
+    const std::size_t frame_bytes = joints * sizeof(Eigen::Quaterniond) + translated_joints * sizeof(Eigen::Vector3d);
+    const double storage = double(frames) * double(frame_bytes);
+    const double limit = double(kStoragePerFileByte) * double(text_.size()) + double(kStorageSlack);
+    if (storage <= limit) return;
+    const auto mib = [](double bytes) { return std::to_string(static_cast<long long>(std::ceil(bytes / (1 << 20)))); };
+    throw InputError(path_, std::to_string(joints) + " joints x " + std::to_string(frames) + " frames would take " +
+                                mib(storage) + " MiB as a clip, more than the " + mib(limit) + " MiB allowed for a " +
+                                std::to_string(text_.size()) +
+                                "-byte file: too many joints without channels for its frames");
+  }
+
   // One line of numbers a frame. Blank lines between frames are skipped; a frame line with fewer
   // or more numbers than channels, fewer frame lines than declared, or anything after the last
   // declared frame is an error.
@@ -354,6 +375,7 @@ class BvhParser {
     // channels bytes: reserve no more frames than the rest of the file can hold.
     const std::size_t backed_frames = static_cast<std::size_t>(end - p) / (2 * channels) + 1;
     const std::size_t reserved = std::min<std::size_t>(frame_count, backed_frames);
+    check_clip_storage(reserved, clip.translated_joints.size());
     clip.rotations.reserve(reserved * joints);
     clip.translations.reserve(reserved * clip.translated_joints.size());
 
@@ -444,8 +466,10 @@ Clip load_bvh(const std::string& path, const BvhOptions& options) {
     throw std::invalid_argument("BVH metres_per_unit " + std::to_string(options.metres_per_unit) +
                                 " is not a positive finite number");
   }
-  const std::string text = read_whole_file(path);
-  return BvhParser(path, text).parse(options.metres_per_unit);
+  return naming_out_of_memory(path, [&] {
+    const std::string text = read_whole_file(path);
+    return BvhParser(path, text).parse(options.metres_per_unit);
+  });
 }
 
 }  // namespace odyssey::io
