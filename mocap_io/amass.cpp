@@ -4,6 +4,7 @@
 #include <cmath>
 #include <span>
 #include <string_view>
+#include <vector>
 
 #include "mocap_io/input_error.h"
 #include "mocap_io/npy.h"
@@ -137,11 +138,15 @@ class AmassReader {
     }
     frames_source_ = "root_orient";
     const std::size_t frames = root.shape[0];
+    // The frame count is only a header's word: every part is loaded (which checks its data against
+    // its shape) before the pose is allocated from it.
+    std::vector<RowMatrixXd> columns;
+    for (const PosePart& part : parts) columns.push_back(matrix(part.key, part.width, frames, frames_source_));
     sequence.poses.resize(static_cast<Eigen::Index>(frames), 3 * body_model_joint_count(sequence.kind));
-    int column = 0;
-    for (const PosePart& part : parts) {
-      sequence.poses.middleCols(column, part.width) = matrix(part.key, part.width, frames, frames_source_);
-      column += part.width;
+    Eigen::Index column = 0;
+    for (const RowMatrixXd& part : columns) {
+      sequence.poses.middleCols(column, part.cols()) = part;
+      column += part.cols();
     }
     file.pose_keys = "split keys";
   }
@@ -235,7 +240,9 @@ void add_matrix(NpzWriter& writer, const std::string& key, const RowMatrixXd& ma
 
 }  // namespace
 
-AmassFile load_amass_file(const std::string& path) { return AmassReader(path).read(); }
+AmassFile load_amass_file(const std::string& path) {
+  return naming_out_of_memory(path, [&] { return AmassReader(path).read(); });
+}
 
 BodySequence load_amass(const std::string& path) { return load_amass_file(path).sequence; }
 
