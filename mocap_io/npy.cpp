@@ -12,6 +12,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string_view>
+#include <unordered_set>
 
 #include "mocap_io/output_file.h"
 #include "mocap_io/zip.h"
@@ -181,6 +182,11 @@ class HeaderParser {
     std::size_t count = 0, bytes = 0;
     if (!checked_product(header.shape, count) || __builtin_mul_overflow(count, header.item_size, &bytes))
       where_.fail("shape " + shape_text(header.shape) + " of " + quoted(descr) + " is too large to address");
+    // Zero-width text elements hold no data, so their count is not backed by the file and each
+    // would still cost a string in memory; numpy never writes them (it widens U0 and S0 to 1).
+    if (header.item_size == 0 && count > 0)
+      where_.fail("dtype " + quoted(descr) + " has zero width, yet shape " + shape_text(header.shape) + " gives it " +
+                  std::to_string(count) + " elements");
     return header;
   }
 
@@ -277,6 +283,7 @@ class SpanSource {
   explicit SpanSource(std::span<const std::byte> bytes) : bytes_(bytes) {}
   std::uint64_t remaining() const { return bytes_.size() - pos_; }
   void read_exact(std::span<std::byte> out) {
+    if (out.empty()) return;  // an empty array's buffer may be null, which memcpy must not see
     std::memcpy(out.data(), bytes_.data() + pos_, out.size());
     pos_ += out.size();
   }
@@ -528,6 +535,9 @@ void widen(const std::byte* src, std::size_t n, Out* dst) {
 template <class Out>
 std::vector<Out> convert(const NpyArray& array, const char* target) {
   check_layout(array);
+  // Refused before `out` is sized from the shape.
+  if (array.dtype() == DType::Unicode || array.dtype() == DType::Bytes || array.dtype() == DType::Object)
+    throw std::invalid_argument(std::string("cannot convert a ") + dtype_name(array.dtype()) + " array to " + target);
   std::vector<Out> out(array.element_count());
   const std::byte* p = array.data.data();
   const std::size_t n = out.size();
@@ -548,7 +558,7 @@ std::vector<Out> convert(const NpyArray& array, const char* target) {
     case DType::Unicode:
     case DType::Bytes:
     case DType::Object:
-      throw std::invalid_argument(std::string("cannot convert a ") + dtype_name(array.dtype()) + " array to " + target);
+      break;  // refused above
   }
   return out;
 }
@@ -609,9 +619,7 @@ NpyArray from_values(DType dtype, std::span<const T> values, std::vector<std::si
 }
 
 template <class M>
-const M& find_member(const std::vector<M>& members, const std::string& key, const std::string& path) {
-  for (const M& m : members)
-    if (m.key == key) return m;
+[[noreturn]] void fail_missing_member(const std::vector<M>& members, const std::string& key, const std::string& path) {
   constexpr std::size_t kListed = 20;
   std::string list;
   for (std::size_t i = 0; i < members.size() && i < kListed; ++i) list += (i ? ", " : "") + printable(members[i].key);
@@ -771,13 +779,17 @@ NpyArray NpyArray::scalar_float64(double value) { return from_float64(std::span<
 NpyArray NpyArray::scalar_string(const std::string& value) { return from_strings(std::span<const std::string>(&value, 1), {}); }
 
 NpyArray read_npy(const std::string& path) {
-  FileSource source(path);
-  return read_array(source, Where{path, {}});
+  return naming_out_of_memory(path, [&] {
+    FileSource source(path);
+    return read_array(source, Where{path, {}});
+  });
 }
 
 NpyArray parse_npy(std::span<const std::byte> bytes, const std::string& name) {
-  SpanSource source(bytes);
-  return read_array(source, Where{name, {}});
+  return naming_out_of_memory(name, [&] {
+    SpanSource source(bytes);
+    return read_array(source, Where{name, {}});
+  });
 }
 
 void write_npy(const std::string& path, const NpyArray& array) {
@@ -797,13 +809,20 @@ struct NpzReader::Member {
   zip::Entry entry;
 };
 
+// Keys are looked up through a hash map, so an archive of n members costs O(n) to open and to
+// read whole, not O(n^2).
 NpzReader::NpzReader(std::string path) : path_(std::move(path)) {
-  for (zip::Entry& entry : zip::read_directory(path_)) {
-    std::string key = entry.name;
-    if (key.ends_with(".npy")) key.resize(key.size() - 4);
-    if (contains(key)) throw InputError(path_, "duplicate member " + quoted(entry.name));
-    members_.push_back({std::move(key), std::move(entry)});
-  }
+  naming_out_of_memory(path_, [&] {
+    std::vector<zip::Entry> entries = zip::read_directory(path_);
+    members_.reserve(entries.size());
+    index_.reserve(entries.size());
+    for (zip::Entry& entry : entries) {
+      std::string key = entry.name;
+      if (key.ends_with(".npy")) key.resize(key.size() - 4);
+      if (!index_.emplace(key, members_.size()).second) throw InputError(path_, "duplicate member " + quoted(entry.name));
+      members_.push_back({std::move(key), std::move(entry)});
+    }
+  });
 }
 
 NpzReader::~NpzReader() = default;
@@ -817,20 +836,26 @@ std::vector<std::string> NpzReader::keys() const {
   return out;
 }
 
-bool NpzReader::contains(const std::string& key) const {
-  return std::any_of(members_.begin(), members_.end(), [&](const Member& m) { return m.key == key; });
+bool NpzReader::contains(const std::string& key) const { return index_.contains(key); }
+
+const NpzReader::Member& NpzReader::member(const std::string& key) const {
+  const auto it = index_.find(key);
+  if (it == index_.end()) fail_missing_member(members_, key, path_);
+  return members_[it->second];
 }
 
 NpyHeader NpzReader::header(const std::string& key) const {
-  const Member& member = find_member(members_, key, path_);
-  zip::MemberReader reader(path_, member.entry, member_label(key));
-  return read_header(reader, Where{path_, member_label(key)});
+  return naming_out_of_memory(path_, [&] {
+    zip::MemberReader reader(path_, member(key).entry, member_label(key));
+    return read_header(reader, Where{path_, member_label(key)});
+  });
 }
 
 NpyArray NpzReader::load(const std::string& key) const {
-  const Member& member = find_member(members_, key, path_);
-  zip::MemberReader reader(path_, member.entry, member_label(key));
-  return read_array(reader, Where{path_, member_label(key)});
+  return naming_out_of_memory(path_, [&] {
+    zip::MemberReader reader(path_, member(key).entry, member_label(key));
+    return read_array(reader, Where{path_, member_label(key)});
+  });
 }
 
 // --- NpzWriter ---------------------------------------------------------------------------------
@@ -839,7 +864,7 @@ struct NpzWriter::State {
   TempFile file;  // declared before the zip writer, which uses its FILE* until destroyed
   zip::Writer zip;
   zip::Method method;
-  std::vector<std::string> keys;
+  std::unordered_set<std::string> keys;
   bool array_open = false;
   std::string array_key;
   std::uint64_t bytes_left = 0;
@@ -864,7 +889,7 @@ void NpzWriter::begin_array(const std::string& key, DType dtype, std::vector<std
   State& s = live(state_);
   if (s.array_open) throw std::logic_error("begin_array(" + quoted(key) + ") while array " + quoted(s.array_key) + " is open");
   if (key.empty()) throw std::invalid_argument("npz keys must not be empty");
-  if (std::find(s.keys.begin(), s.keys.end(), key) != s.keys.end()) throw std::invalid_argument("duplicate npz key " + quoted(key));
+  if (s.keys.contains(key)) throw std::invalid_argument("duplicate npz key " + quoted(key));
   if (item_size == 0) item_size = natural_item_size(dtype);
   const std::size_t data_bytes = data_bytes_for_writing(dtype, item_size, shape);
   const std::string preamble = npy_preamble(dtype, item_size, shape);
@@ -872,7 +897,7 @@ void NpzWriter::begin_array(const std::string& key, DType dtype, std::vector<std
     s.zip.begin_member(key + ".npy", s.method, preamble.size() + data_bytes);
     s.zip.write(std::as_bytes(std::span(preamble)));
   });
-  s.keys.push_back(key);
+  s.keys.insert(key);
   s.array_open = true;
   s.array_key = key;
   s.bytes_left = data_bytes;

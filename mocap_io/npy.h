@@ -18,6 +18,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "mocap_io/input_error.h"
@@ -95,8 +96,11 @@ class NpzReader {
 
  private:
   struct Member;
+  const Member& member(const std::string& key) const;
+
   std::string path_;
-  std::vector<Member> members_;
+  std::vector<Member> members_;                           // archive order
+  std::unordered_map<std::string, std::size_t> index_;  // key -> position in members_
 };
 
 // Writes an .npz archive. Arrays can be added whole, or streamed: begin_array() fixes dtype and

@@ -1,5 +1,8 @@
 #include "mocap_io/zip.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -45,40 +48,43 @@ std::uint16_t load16(const std::byte* p) {
 std::uint32_t load32(const std::byte* p) { return load16(p) | std::uint32_t{load16(p + 2)} << 16; }
 std::uint64_t load64(const std::byte* p) { return load32(p) | std::uint64_t{load32(p + 4)} << 32; }
 
-struct FileCloser {
-  void operator()(std::FILE* f) const { std::fclose(f); }
-};
-using FileHandle = std::unique_ptr<std::FILE, FileCloser>;
-
-// A read-only file with its size, where every read is positioned and must be complete.
+// A read-only file with its size, where every read is positioned and must be complete. Reads
+// are single pread calls, no stdio buffer or seeks: an npz of many small members opens the file
+// once per member, and each system call counts.
 class InputFile {
  public:
-  explicit InputFile(const std::string& path) : path_(path), file_(std::fopen(path.c_str(), "rb")) {
-    if (!file_) throw InputError(path_, std::string("cannot open: ") + std::strerror(errno));
-    if (fseeko(file_.get(), 0, SEEK_END) != 0) fail_io("cannot seek");
-    const off_t end = ftello(file_.get());
-    if (end < 0) fail_io("cannot tell the file size");
-    size_ = static_cast<std::uint64_t>(end);
+  explicit InputFile(const std::string& path) : path_(path), fd_(::open(path.c_str(), O_RDONLY | O_CLOEXEC)) {
+    if (fd_ < 0) throw InputError(path_, std::string("cannot open: ") + std::strerror(errno));
+    struct stat status {};
+    if (::fstat(fd_, &status) != 0) {
+      const int error = errno;
+      ::close(fd_);
+      throw InputError(path_, std::string("cannot tell the file size: ") + std::strerror(error));
+    }
+    size_ = static_cast<std::uint64_t>(status.st_size);
   }
+  ~InputFile() { ::close(fd_); }
+  InputFile(const InputFile&) = delete;
+  InputFile& operator=(const InputFile&) = delete;
 
   std::uint64_t size() const { return size_; }
 
   // `what` says which structure was being read, for the message when the file ends first.
   void read_at(std::uint64_t offset, std::span<std::byte> out, const std::string& what) {
     if (offset > size_ || out.size() > size_ - offset) throw InputError(path_, what + " lies past the end of the file (truncated?)");
-    if (fseeko(file_.get(), static_cast<off_t>(offset), SEEK_SET) != 0) fail_io("cannot seek");
-    errno = 0;
-    if (std::fread(out.data(), 1, out.size(), file_.get()) != out.size()) fail_io("read failed");
+    std::size_t done = 0;
+    while (done < out.size()) {
+      const ssize_t got = ::pread(fd_, out.data() + done, out.size() - done, static_cast<off_t>(offset + done));
+      if (got < 0 && errno == EINTR) continue;
+      if (got < 0) throw InputError(path_, std::string("read failed: ") + std::strerror(errno));
+      if (got == 0) throw InputError(path_, "read failed (file shrank?)");
+      done += static_cast<std::size_t>(got);
+    }
   }
 
  private:
-  [[noreturn]] void fail_io(const char* what) const {
-    const int error = errno;
-    throw InputError(path_, std::string(what) + (error ? std::string(": ") + std::strerror(error) : std::string()));
-  }
-
   std::string path_;
-  FileHandle file_;
+  int fd_;
   std::uint64_t size_ = 0;
 };
 
