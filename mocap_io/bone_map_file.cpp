@@ -4,6 +4,8 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <unordered_set>
+#include <vector>
 
 #include "mocap_io/input_error.h"
 
@@ -11,20 +13,35 @@ namespace odyssey::io {
 
 namespace {
 
-std::string optional_text(const nlohmann::ordered_json& document, const char* key, const std::string& origin) {
+std::string optional_text(const nlohmann::json& document, const char* key, const std::string& origin) {
   const auto it = document.find(key);
   if (it == document.end() || it->is_null()) return {};
   if (!it->is_string()) throw InputError(origin, std::string("'") + key + "' must be a string");
   return it->get<std::string>();
 }
 
-}  // namespace
-
-BoneMapFile parse_bone_map(const std::string& json_text, const std::string& origin) {
-  nlohmann::ordered_json document;
+// nlohmann::ordered_json inserts each key by a linear scan, quadratic in a map's size; a plain
+// json object is a std::map, and the file order of "joints" is recorded as the parser meets its
+// keys (depth 1: the document's keys, depth 2: the keys of an object among them).
+BoneMapFile parse(const std::string& json_text, const std::string& origin) {
+  std::vector<std::string> canonical_order;
+  int joints_keys = 0;
+  bool in_joints = false;
+  const nlohmann::json::parser_callback_t record = [&](int depth, nlohmann::json::parse_event_t event,
+                                                       nlohmann::json& parsed) {
+    if (event != nlohmann::json::parse_event_t::key) return true;
+    if (depth == 1) {
+      in_joints = parsed == "joints";
+      if (in_joints && ++joints_keys > 1) throw InputError(origin, "\"joints\" is given twice");
+    } else if (depth == 2 && in_joints) {
+      canonical_order.push_back(parsed.get<std::string>());
+    }
+    return true;
+  };
+  nlohmann::json document;
   try {
-    document = nlohmann::ordered_json::parse(json_text);
-  } catch (const nlohmann::json::parse_error& error) {
+    document = nlohmann::json::parse(json_text, record);
+  } catch (const nlohmann::json::exception& error) {
     throw InputError(origin, std::string("not valid JSON: ") + error.what());
   }
   if (!document.is_object()) throw InputError(origin, "a bone map must be a JSON object");
@@ -36,7 +53,10 @@ BoneMapFile parse_bone_map(const std::string& json_text, const std::string& orig
     throw InputError(origin, "a bone map needs a \"joints\" object (canonical name -> rig joint name)");
   }
   std::set<std::string> rig_names_seen;
-  for (const auto& [canonical, value] : joints->items()) {
+  std::unordered_set<std::string> canonical_seen;
+  for (const std::string& canonical : canonical_order) {
+    if (!canonical_seen.insert(canonical).second) throw InputError(origin, "'" + canonical + "' is given twice");
+    const nlohmann::json& value = joints->at(canonical);
     BoneMapEntry entry{canonical, {}};
     if (value.is_string()) {
       entry.rig_joints.push_back(value.get<std::string>());
@@ -60,13 +80,21 @@ BoneMapFile parse_bone_map(const std::string& json_text, const std::string& orig
   return map;
 }
 
+}  // namespace
+
+BoneMapFile parse_bone_map(const std::string& json_text, const std::string& origin) {
+  return naming_out_of_memory(origin, [&] { return parse(json_text, origin); });
+}
+
 BoneMapFile load_bone_map_file(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw InputError(path, "cannot open the bone map file");
-  std::ostringstream text;
-  text << file.rdbuf();
-  if (file.bad()) throw InputError(path, "cannot read the bone map file");
-  return parse_bone_map(text.str(), path);
+  return naming_out_of_memory(path, [&] {
+    std::ifstream file(path, std::ios::binary);
+    if (!file) throw InputError(path, "cannot open the bone map file");
+    std::ostringstream text;
+    text << file.rdbuf();
+    if (file.bad()) throw InputError(path, "cannot read the bone map file");
+    return parse(text.str(), path);
+  });
 }
 
 }  // namespace odyssey::io

@@ -16,7 +16,10 @@
 namespace odyssey::io {
 namespace {
 
-using Json = nlohmann::ordered_json;
+// Read into nlohmann::json, whose objects are std::maps: ordered_json inserts each key by a linear
+// scan, quadratic in an object's size. Written from ordered_json, so keys appear as written.
+using Json = nlohmann::json;
+using OrderedJson = nlohmann::ordered_json;
 
 constexpr const char* kFormat = "odyssey camera path";
 constexpr int kVersion = 1;
@@ -25,10 +28,10 @@ constexpr const char* kConventions =
     "camera axes (OpenCV): x right, y down, z forward; intrinsics: K in pixels, (u, v) = (fx x/z + cx, fy y/z + cy), "
     "image [0, width) x [0, height); centre = -R^T t; time = frame / fps seconds";
 
-Json rows_of(const Eigen::MatrixXd& matrix) {
-  Json rows = Json::array();
+OrderedJson rows_of(const Eigen::MatrixXd& matrix) {
+  OrderedJson rows = OrderedJson::array();
   for (Eigen::Index r = 0; r < matrix.rows(); ++r) {
-    Json row = Json::array();
+    OrderedJson row = OrderedJson::array();
     for (Eigen::Index c = 0; c < matrix.cols(); ++c) row.push_back(matrix(r, c));
     rows.push_back(std::move(row));
   }
@@ -169,18 +172,18 @@ void write_camera_path_json(const std::string& path, const CameraPath& camera) {
   // validate() allows an empty path, but the reader rejects one: refuse to write a file that
   // could not be read back.
   if (camera.poses.empty()) throw std::invalid_argument("camera path has no frames");
-  Json document;
+  OrderedJson document;
   document["format"] = kFormat;
   document["version"] = kVersion;
   document["kind"] = camera.kind;
   document["fps"] = camera.fps;
   document["frame_count"] = camera.poses.size();
   document["conventions"] = kConventions;
-  Json frames = Json::array();
+  OrderedJson frames = OrderedJson::array();
   for (std::size_t f = 0; f < camera.poses.size(); ++f) {
     const PinholeIntrinsics& k = camera.intrinsics[f];
     const CameraPose& pose = camera.poses[f];
-    Json frame;
+    OrderedJson frame;
     frame["frame"] = f;
     frame["time"] = double(f) / camera.fps;
     frame["width"] = k.width;
@@ -188,7 +191,7 @@ void write_camera_path_json(const std::string& path, const CameraPath& camera) {
     frame["intrinsics"] = rows_of(k.matrix());
     frame["extrinsics"] = rows_of(pose.extrinsics());
     const Eigen::Vector3d centre = pose.centre();
-    frame["centre"] = Json::array({centre.x(), centre.y(), centre.z()});
+    frame["centre"] = OrderedJson::array({centre.x(), centre.y(), centre.z()});
     frames.push_back(std::move(frame));
   }
   document["frames"] = std::move(frames);
@@ -198,12 +201,14 @@ void write_camera_path_json(const std::string& path, const CameraPath& camera) {
 }
 
 CameraPath read_camera_path_json(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw InputError(path, "cannot be opened");
-  std::ostringstream text;
-  text << file.rdbuf();
-  if (file.bad()) throw InputError(path, "could not be read to the end");
-  return CameraPathReader(path).read(text.str());
+  return naming_out_of_memory(path, [&] {
+    std::ifstream file(path, std::ios::binary);
+    if (!file) throw InputError(path, "cannot be opened");
+    std::ostringstream text;
+    text << file.rdbuf();
+    if (file.bad()) throw InputError(path, "could not be read to the end");
+    return CameraPathReader(path).read(text.str());
+  });
 }
 
 }  // namespace odyssey::io
