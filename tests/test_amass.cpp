@@ -18,6 +18,7 @@
 #include "mocap_io/input_error.h"
 #include "mocap_io/npy.h"
 #include "skeleton/body_sequence.h"
+#include "test_support.h"
 
 namespace odyssey::io {
 namespace {
@@ -25,7 +26,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path scratch() {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "amass";
+  const fs::path dir = odyssey::test_support::scratch_root() / "amass";
   fs::create_directories(dir);
   return dir;
 }

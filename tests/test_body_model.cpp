@@ -14,6 +14,7 @@
 #include "mocap_io/input_error.h"
 #include "mocap_io/npy.h"
 #include "skeleton/body_model.h"
+#include "test_support.h"
 
 namespace odyssey {
 namespace {
@@ -472,7 +473,7 @@ void save_model(const BodyModel& model, const std::string& path) {
 }
 
 fs::path scratch_dir() {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "body_model";
+  const fs::path dir = odyssey::test_support::scratch_root() / "body_model";
   fs::create_directories(dir);
   return dir;
 }

@@ -15,6 +15,7 @@
 #include "mocap_io/input_error.h"
 #include "retarget/bone_map.h"
 #include "retarget/reference_rig.h"
+#include "test_support.h"
 
 namespace odyssey::retarget {
 namespace {
@@ -35,7 +36,7 @@ std::map<std::string, std::string> named(const Skeleton& rig, const BoneMap& map
 }
 
 std::string write_scratch(const std::string& name, const std::string& text) {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "bone_map";
+  const fs::path dir = odyssey::test_support::scratch_root() / "bone_map";
   fs::create_directories(dir);
   const fs::path path = dir / name;
   std::ofstream(path, std::ios::binary) << text;
@@ -268,7 +269,7 @@ TEST(BoneMapFileTest, RejectsBadFiles) {
       EXPECT_NE(error.problem().find(problem), std::string::npos) << text << " -> " << error.what();
     }
   }
-  EXPECT_THROW(io::load_bone_map_file(std::string(ODYSSEY_SCRATCH_DIR) + "/bone_map/does_not_exist.json"), io::InputError);
+  EXPECT_THROW(io::load_bone_map_file(odyssey::test_support::scratch_root().string() + "/bone_map/does_not_exist.json"), io::InputError);
   const io::BoneMapFile file = io::parse_bone_map(R"({"joints": {"pelvis": "Hips", "jaw": null, "left_wrist": ["a", "b"]}})", "ok");
   ASSERT_EQ(file.entries.size(), 3u);
   EXPECT_EQ(file.entries[0].canonical, "pelvis");  // file order kept

@@ -17,6 +17,7 @@
 
 #include "mocap_io/bvh.h"
 #include "mocap_io/input_error.h"
+#include "test_support.h"
 
 namespace odyssey::io {
 namespace {
@@ -28,7 +29,7 @@ const std::string kWalk = std::string(ODYSSEY_SHARED_DIR) + "/assets/mocap/cmu_w
 const std::string kJump = std::string(ODYSSEY_SHARED_DIR) + "/assets/mocap/cmu_jump_cgspeed.bvh";
 
 std::string write_scratch(const std::string& name, const std::string& text) {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "bvh";
+  const fs::path dir = odyssey::test_support::scratch_root() / "bvh";
   fs::create_directories(dir);
   const fs::path path = dir / name;
   std::ofstream(path, std::ios::binary) << text;

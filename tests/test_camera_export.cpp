@@ -35,6 +35,7 @@
 #include "mocap_io/input_error.h"
 #include "skeleton/camera.h"
 #include "skeleton/rotation.h"
+#include "test_support.h"
 
 namespace odyssey::io {
 namespace {
@@ -44,7 +45,7 @@ using Eigen::Matrix3d;
 using Eigen::Vector3d;
 
 fs::path scratch_dir() {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "camera_export";
+  const fs::path dir = odyssey::test_support::scratch_root() / "camera_export";
   fs::create_directories(dir);
   return dir;
 }

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "mocap_io/npy.h"
+#include "test_support.h"
 
 namespace {
 
@@ -20,7 +21,7 @@ using Result = odyssey::test_support::CliResult;
 const auto run = odyssey::test_support::run_cli;
 
 fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "cli";
+  const fs::path dir = odyssey::test_support::scratch_root() / "cli";
   fs::create_directories(dir);
   return dir / name;
 }

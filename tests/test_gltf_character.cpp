@@ -24,6 +24,7 @@
 #include "gltf_reference.h"
 #include "mocap_io/gltf_character.h"
 #include "mocap_io/input_error.h"
+#include "test_support.h"
 
 namespace odyssey::io {
 namespace {
@@ -37,7 +38,7 @@ std::string character_path(const std::string& file) {
 }
 
 fs::path scratch_dir() {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "gltf_character";
+  const fs::path dir = odyssey::test_support::scratch_root() / "gltf_character";
   fs::create_directories(dir);
   return dir;
 }

@@ -38,6 +38,7 @@
 #include "mocap_io/gltf_export.h"
 #include "mocap_io/input_error.h"
 #include "skeleton/rotation.h"
+#include "test_support.h"
 
 namespace odyssey::io {
 namespace {
@@ -53,7 +54,7 @@ std::string character_path(const std::string& file) {
 }
 
 fs::path scratch_dir() {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "gltf_export";
+  const fs::path dir = odyssey::test_support::scratch_root() / "gltf_export";
   fs::create_directories(dir);
   return dir;
 }

@@ -28,7 +28,7 @@ namespace {
 using odyssey::test_support::numpy_python;
 
 fs::path scratch_file(const std::string& suffix) {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "npz";
+  const fs::path dir = odyssey::test_support::scratch_root() / "npz";
   fs::create_directories(dir);
   const auto* test = testing::UnitTest::GetInstance()->current_test_info();
   return dir / (std::string(test->test_suite_name()) + "." + test->name() + "." + suffix);

@@ -38,6 +38,7 @@
 #include "retarget/retarget.h"
 #include "skeleton/body_clip.h"
 #include "skeleton/synthetic_body.h"
+#include "test_support.h"
 
 namespace odyssey::retarget {
 namespace {
@@ -53,7 +54,7 @@ using Result = odyssey::test_support::CliResult;
 const auto run = odyssey::test_support::run_cli;
 
 fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "retarget_cli";
+  const fs::path dir = odyssey::test_support::scratch_root() / "retarget_cli";
   fs::create_directories(dir);
   return dir / name;
 }

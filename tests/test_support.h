@@ -1,8 +1,9 @@
 // Small helpers the test files share: the numpy cross-check interpreter, the message of an
-// expected exception, substring tests, per-test scratch folders.
+// expected exception, substring tests, per-process and per-test scratch folders.
 #pragma once
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -38,12 +39,36 @@ std::string message_of(F&& operation) {
 
 inline bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
-// A fresh, empty folder for the current test under ODYSSEY_SCRATCH_DIR/`suite`, so that leftovers
-// can be listed.
+// This process's own scratch folder, ODYSSEY_SCRATCH_DIR/pid-<pid>. gtest_discover_tests runs
+// every test in a process of its own and `ctest -j` runs several at once, so a file one process
+// writes (a suite's shared fixture included) must never be a path another process writes or
+// reads. The folder is removed when the process ends with every test passed, and kept for a look
+// when one failed.
+class ScratchRoot : public testing::Environment {
+ public:
+  static const std::filesystem::path& path() {
+    static const std::filesystem::path root = [] {
+      std::filesystem::path dir = std::filesystem::path(ODYSSEY_SCRATCH_DIR) / ("pid-" + std::to_string(::getpid()));
+      std::filesystem::remove_all(dir);  // a stale folder of an earlier process with the same pid
+      std::filesystem::create_directories(dir);
+      return dir;
+    }();
+    return root;
+  }
+  void TearDown() override {
+    std::error_code ignored;
+    if (testing::UnitTest::GetInstance()->Passed()) std::filesystem::remove_all(path(), ignored);
+  }
+};
+inline testing::Environment* const kScratchRootCleanup = testing::AddGlobalTestEnvironment(new ScratchRoot);
+
+inline const std::filesystem::path& scratch_root() { return ScratchRoot::path(); }
+
+// A fresh, empty folder for the current test under scratch_root()/`suite`, so that leftovers can
+// be listed.
 inline std::filesystem::path scratch_dir(const std::string& suite) {
   const auto* test = testing::UnitTest::GetInstance()->current_test_info();
-  const std::filesystem::path dir =
-      std::filesystem::path(ODYSSEY_SCRATCH_DIR) / suite / (std::string(test->test_suite_name()) + "." + test->name());
+  const std::filesystem::path dir = scratch_root() / suite / (std::string(test->test_suite_name()) + "." + test->name());
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

@@ -35,6 +35,7 @@
 #include "mocap_io/body_model_writer.h"
 #include "mocap_io/npy.h"
 #include "skeleton/synthetic_body.h"
+#include "test_support.h"
 
 namespace {
 
@@ -59,7 +60,7 @@ const SyntheticBody& dense_body() {
 }
 
 fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "synthetic_body";
+  const fs::path dir = odyssey::test_support::scratch_root() / "synthetic_body";
   fs::create_directories(dir);
   return dir / name;
 }
