@@ -1,11 +1,11 @@
 // Speed and memory of the streams renderers and annotators consume (scene_layouts/streams.h),
 // end to end from a retargeted clip to a file on disk:
 //
-//   trajectories  export_trajectories into a TrajectoryFileWriter and close(): per frame forward
+//   trajectories  the frame loop (run_streams) into a TrajectorySink and close(): per frame forward
 //                 kinematics, the points' corner vertices skinned, the whole mesh skinned and drawn
 //                 into a 960x540 depth buffer, 5,000 points projected and depth-tested, every key
 //                 written (stored npz, as odyssey trajectories writes by default);
-//   point cache   export_point_cache into a Pc2Writer and close(): the whole mesh skinned and
+//   point cache   the frame loop into a PointCacheSink and close(): the whole mesh skinned and
 //                 written every frame.
 // Characters: RiggedFigure (the bundled character) and the synthetic SMPL-X body as a character
 // (10,475 vertices, 20,908 triangles, 55 joints). Motion: the CMU jump BVH retargeted (quality
@@ -97,12 +97,32 @@ std::string scratch(const std::string& name) {
   return (fs::temp_directory_path() / ("odyssey_bench_" + std::to_string(::getpid()) + "_" + name)).string();
 }
 
+// Runs the frame loop (run_streams) on one actor into one sink: what every command and scene does.
+double run_once(const Subject& subject, const Clip& clip, const CameraPath* camera, scene::StreamSink& sink) {
+  scene::StreamActor actor;
+  actor.name = subject.name;
+  actor.character = &subject.character;
+  actor.clip = &clip;
+  std::vector<scene::StreamCamera> cameras;
+  if (camera) {
+    actor.points = subject.points;
+    cameras.push_back({"orbit", camera, -1, true});
+  } else {
+    actor.mesh_every_frame = true;
+  }
+  scene::StreamSink* sinks[] = {&sink};
+  return scene::run_streams(std::span(&actor, 1), nullptr, cameras, sinks).seconds;
+}
+
 double export_trajectories_once(const Subject& subject, const Clip& clip, const CameraPath& camera) {
   const std::string path = scratch(subject.name + ".npz");
   const auto start = std::chrono::steady_clock::now();
-  io::TrajectoryFileWriter writer(path, scene::trajectory_file_header(subject.character, subject.points,
-                                                                      clip.frame_count(), clip.fps));
-  scene::export_trajectories(subject.character, clip, subject.points, camera, writer);
+  scene::StreamActor actor;
+  actor.character = &subject.character;
+  actor.points = subject.points;
+  io::TrajectoryFileWriter writer(path, scene::trajectory_file_header(std::span(&actor, 1), nullptr, clip.frame_count(), clip.fps));
+  scene::TrajectorySink sink(0, writer);
+  run_once(subject, clip, &camera, sink);
   writer.close();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   fs::remove(path);
@@ -113,7 +133,8 @@ double export_point_cache_once(const Subject& subject, const Clip& clip) {
   const std::string path = scratch(subject.name + ".pc2");
   const auto start = std::chrono::steady_clock::now();
   io::Pc2Writer writer(path, subject.vertices, clip.frame_count());
-  scene::export_point_cache(subject.character, clip, writer);
+  scene::PointCacheSink sink(0, writer);
+  run_once(subject, clip, nullptr, sink);
   writer.close();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   fs::remove(path);

@@ -1,11 +1,12 @@
 // odyssey demo: the main job on built-in defaults. Generates the synthetic SMPL-X body and a
 // synthetic AMASS-style walk, poses the body over the walk (joints and full mesh per frame),
-// converts the bundled CMU walk BVH to world joint trajectories, and retargets that walk onto the
-// bundled character as an animated GLB (with a camera riding on its head) and its report, tracks
-// 5,000 surface points through an orbiting camera (annotation npz) and writes the deformed mesh as
-// a PC2 point cache, timing each step. Those steps run the odyssey commands themselves, with the
-// command lines printed, so the demo shows what a user types.
+// converts the bundled CMU walk BVH to world joint trajectories, retargets that walk once onto the
+// bundled character and writes from it an animated GLB (with a camera riding on its head), its
+// report, 5,000 surface points tracked through an orbiting camera (annotation npz) and the
+// deformed mesh as a PC2 point cache, then runs the bundled indoor scene (odyssey scene), timing
+// each step.
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -18,6 +19,7 @@
 #include "mocap_io/body_model_writer.h"
 #include "mocap_io/bvh.h"
 #include "mocap_io/pose_export.h"
+#include "scene_layouts/pipeline.h"
 #include "skeleton/body_sequence.h"
 #include "skeleton/synthetic_body.h"
 
@@ -38,10 +40,11 @@ int run_demo(const std::vector<std::string>& arguments) {
   Args args("demo",
             "Run the main job on the bundled defaults: write the synthetic SMPL-X body model, a synthetic\n"
             "AMASS-style SMPL-X walk, the body posed over the walk (joints and vertices per frame), and the\n"
-            "bundled CMU walk BVH as world joint trajectories, then retarget the CMU walk onto the bundled\n"
-            "character (odyssey retarget) as an animated GLB with an ego-head camera and its JSON report, track\n"
-            "5,000 of its surface points through an orbiting camera (odyssey trajectories) and write its mesh\n"
-            "every frame as a PC2 point cache (odyssey point-cache). Everything goes to --out.");
+            "bundled CMU walk BVH as world joint trajectories, then retarget the CMU walk once onto the bundled\n"
+            "character and write an animated GLB with an ego-head camera, its JSON report, 5,000 of its surface\n"
+            "points tracked through an orbiting camera and its mesh every frame as a PC2 point cache, and run\n"
+            "the bundled indoor scene (two people, furniture, three cameras: odyssey scene). Everything goes\n"
+            "to --out.");
   args.option("out", "DIR", "output folder", "demo-out")
       .option("data", "DIR", "the bundled data folder", ODYSSEY_DATA_DIR)
       .option("seconds", "S", "length of the synthetic walk", "4")
@@ -85,31 +88,53 @@ int run_demo(const std::vector<std::string>& arguments) {
   std::printf("%-44s %7.2f s  (%d frames, %d joints)\n", ("CMU walk joints   -> " + bvh_out).c_str(), step.seconds(),
               clip.frame_count(), clip.joint_count());
 
-  // The retargeting steps, each run as the odyssey command a user would type, printed first.
+  // One scene of the bundled character walking, retargeted once, written as every output a
+  // single actor has: the animated GLB with a camera on its head, its report, the head camera's
+  // path, 5,000 tracked points seen by an orbiting camera, and its mesh as a point cache.
+  step = Stopwatch();
   const std::string character = args.get("character");
   const std::string stem = (out / ("cmu_walk_on_" + character)).string();
-  const std::vector<std::string> motion_arguments = {
-      "--motion", bvh_path, "--bvh-units", "cmu", "--character", (data / "characters" / (character + ".glb")).string(),
-      "--quality", args.get("quality"), "--fps", args.get("fps")};
-  const auto run_step = [&](const char* label, const char* name, int (*command)(const std::vector<std::string>&),
-                            std::vector<std::string> extra, const std::string& output) {
-    std::vector<std::string> arguments = motion_arguments;
-    arguments.insert(arguments.end(), extra.begin(), extra.end());
-    std::string command_line = std::string("odyssey ") + name;
-    for (const std::string& argument : arguments) command_line += " " + argument;
-    std::printf("\n%s\n", command_line.c_str());
-    std::fflush(stdout);
-    const Stopwatch watch;
-    command(arguments);
-    std::printf("%-44s %7.2f s\n", (std::string(label) + " -> " + output).c_str(), watch.seconds());
-  };
-  run_step("retargeted walk  ", "retarget", run_retarget,
-           {"--out", stem + ".glb", "--report", stem + ".report.json", "--camera", "ego", "--camera-path",
-            stem + ".ego_camera.json"},
-           stem + ".glb");
-  run_step("tracked points   ", "trajectories", run_trajectories,
-           {"--out", stem + ".trajectories.npz", "--points", "5000", "--camera", "orbit"}, stem + ".trajectories.npz");
-  run_step("point cache      ", "point-cache", run_point_cache, {"--out", stem + ".pc2"}, stem + ".pc2");
+  const auto quality = retarget::parse_quality(args.get("quality"));
+  if (!quality) throw UsageError("--quality expects fast, balanced or accurate, got '" + args.get("quality") + "'");
+  scene::Scene walk_scene;
+  walk_scene.name = "cmu_walk_on_" + character;
+  walk_scene.fps = fps;
+  scene::SceneActor actor;
+  actor.name = character;
+  actor.retarget = scene::retarget_request(bvh_path, (data / "characters" / (character + ".glb")).string(), *quality);
+  actor.retarget.fps = fps;
+  actor.retarget.bvh_metres_per_unit = io::kCmuMetresPerUnit;
+  walk_scene.actors.push_back(actor);
+  scene::SceneCamera ego;
+  ego.kind = scene::SceneCamera::Kind::ego;
+  ego.name = "ego";
+  scene::SceneCamera orbit;
+  orbit.kind = scene::SceneCamera::Kind::orbit;
+  orbit.name = "orbit";
+  walk_scene.cameras = {ego, orbit};
+  scene::SceneOutputs& outputs = walk_scene.outputs;
+  outputs.glb = stem + ".glb";
+  outputs.actor_reports = {stem + ".report.json"};
+  outputs.camera_paths = {stem + ".ego_camera.json", ""};
+  outputs.trajectories = {"", stem + ".trajectories.npz"};
+  outputs.point_caches = {stem + ".pc2"};
+  outputs.points_per_actor = 5000;
+  const scene::SceneResult walked = scene::run_scene(walk_scene);
+  std::printf("%-44s %7.2f s  (%d frames, quality %s, retargeted once)\n", ("CMU walk outputs  -> " + stem + ".*").c_str(),
+              step.seconds(), walked.frames, args.get("quality").c_str());
+  for (const std::string& file : walked.outputs) std::printf("    %s\n", file.c_str());
+
+  // The indoor example scene: two people among furniture, an ego camera on one looking at the
+  // other, an orbit and a static camera.
+  step = Stopwatch();
+  // Its "data:" paths name files of this run's data folder.
+  ::setenv("ODYSSEY_DATA_DIR", data.c_str(), 1);
+  const std::filesystem::path scene_path = data / "scenes" / "indoor.json";
+  const std::filesystem::path scene_out = out / "scene_indoor";
+  std::printf("\nodyssey scene %s --out %s\n", scene_path.c_str(), scene_out.c_str());
+  std::fflush(stdout);
+  run_scene({scene_path.string(), "--out", scene_out.string(), "--quiet"});
+  std::printf("%-44s %7.2f s\n", ("indoor scene      -> " + scene_out.string()).c_str(), step.seconds());
   return 0;
 }
 

@@ -6,6 +6,7 @@
 #include "cli/args.h"
 #include "cli/commands.h"
 #include "cli/motion_file.h"
+#include "mocap_io/motion_file.h"
 #include "mocap_io/amass.h"
 #include "mocap_io/body_model_file.h"
 #include "mocap_io/bvh.h"
@@ -86,12 +87,12 @@ int run_inspect(const std::vector<std::string>& arguments) {
   add_bvh_units_option(args);
   if (!args.parse(arguments)) return 0;
   const std::string path = args.get("FILE");
-  switch (detect_motion_file(path)) {
-    case MotionFileKind::Bvh: inspect_bvh(path, bvh_metres_per_unit(args)); break;
-    case MotionFileKind::BodyModel: inspect_body_model(path); break;
-    case MotionFileKind::Amass: inspect_amass(path); break;
-    case MotionFileKind::Npz: inspect_npz(path); break;
-    case MotionFileKind::Npy: inspect_npy(path); break;
+  switch (io::detect_motion_file(path)) {
+    case io::MotionFileKind::Bvh: inspect_bvh(path, bvh_metres_per_unit(args)); break;
+    case io::MotionFileKind::BodyModel: inspect_body_model(path); break;
+    case io::MotionFileKind::Amass: inspect_amass(path); break;
+    case io::MotionFileKind::Npz: inspect_npz(path); break;
+    case io::MotionFileKind::Npy: inspect_npy(path); break;
   }
   return 0;
 }

@@ -9,6 +9,7 @@
 #include "cli/args.h"
 #include "cli/commands.h"
 #include "cli/motion_file.h"
+#include "mocap_io/motion_file.h"
 #include "mocap_io/amass.h"
 #include "mocap_io/body_model_file.h"
 #include "mocap_io/bvh.h"
@@ -43,7 +44,7 @@ int run_pose(const std::vector<std::string>& arguments) {
     if (!(*fps > 0)) throw UsageError("--fps must be positive");
   }
 
-  if (detect_motion_file(motion_path) == MotionFileKind::Bvh) {
+  if (io::detect_motion_file(motion_path) == io::MotionFileKind::Bvh) {
     Clip clip = io::load_bvh(motion_path, io::BvhOptions{bvh_metres_per_unit(args)});
     if (fps) clip = clip.resampled(*fps);
     io::export_clip_joints(clip, out_path);

@@ -1,15 +1,10 @@
 // odyssey retarget: a motion (BVH, or an AMASS-style SMPL-X / SMPL-H sequence) onto a rigged
 // glTF character, written as an animated GLB with an optional JSON report, and optionally a camera
-// (static, orbit, ego-head) as an animated camera node in the GLB and as a camera path JSON.
-//
-// The steps are cli/retarget_job.h's, shared with the commands that write trajectories and point
-// caches. Nothing is written before every step has succeeded, and the outputs are staged under
-// temporary names beside their destinations and renamed together at the end, so a failure at any
-// point leaves none of them behind.
-#include <chrono>
+// (static, orbit, ego-head) as an animated camera node in the GLB and as a camera path JSON: a
+// scene of one actor run by the library pipeline (scene_layouts/pipeline.h). Nothing is written
+// before every step has succeeded; the outputs are renamed into place together at the end.
 #include <cstdio>
 #include <filesystem>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -17,20 +12,12 @@
 #include "cli/args.h"
 #include "cli/camera_options.h"
 #include "cli/commands.h"
-#include "cli/retarget_job.h"
-#include "cli/staged_file.h"
-#include "mocap_io/camera_path_file.h"
-#include "mocap_io/gltf_export.h"
+#include "cli/retarget_options.h"
+#include "scene_layouts/pipeline.h"
 
 namespace odyssey::cli {
-namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
-
-}  // namespace
 
 int run_retarget(const std::vector<std::string>& arguments) {
   Args args("retarget",
@@ -64,8 +51,13 @@ int run_retarget(const std::vector<std::string>& arguments) {
   add_camera_options(args, "none");
   if (!args.parse(arguments)) return 0;
 
-  const auto total_start = Clock::now();
-  const RetargetSettings settings = retarget_settings(args);
+  scene::Scene scene;
+  scene::SceneActor actor;
+  actor.retarget = retarget_request_from(args);
+  actor.name = fs::path(actor.retarget.character_path).stem().string();
+  scene.fps = actor.retarget.fps;
+  scene.outputs.threads = actor.retarget.refine_options.threads;
+  scene.actors.push_back(std::move(actor));
   const std::string out_path = args.get("out");
   const std::optional<std::string> report_path = args.get_optional("report");
   const std::optional<std::string> camera_json_path = args.get_optional("camera-path");
@@ -76,44 +68,19 @@ int run_retarget(const std::vector<std::string>& arguments) {
     throw UsageError("--report and --camera-path name the same file");
   }
   if (camera_json_path && args.get("camera") == "none") throw UsageError("--camera-path needs a --camera");
+  if (const auto camera = camera_from_options(args)) scene.cameras.push_back(*camera);
+  scene.outputs.glb = out_path;
+  if (report_path) scene.outputs.actor_reports = {*report_path};
+  if (camera_json_path) scene.outputs.camera_paths = {*camera_json_path};
 
-  RetargetJob job = run_retarget_job(settings);
-  const std::optional<CameraPath> camera = camera_path_from_options(args, job.character, job.target_map, job.clip());
-
-  auto start = Clock::now();
-  StagedFile glb(out_path);
-  io::GlbExportOptions export_options;
-  export_options.animation_name = fs::path(settings.motion_path).stem().string();
-  if (camera) export_options.camera = &*camera;
-  io::write_animated_glb(settings.character_path, job.character, job.clip(), glb.temp(), export_options);
-  std::optional<StagedFile> camera_json;
-  if (camera_json_path) {
-    camera_json.emplace(*camera_json_path);
-    io::write_camera_path_json(camera_json->temp(), *camera);
-  }
-  const double write_seconds = seconds_since(start);
-  const double total_seconds = seconds_since(total_start);
-
-  std::optional<StagedFile> report_file;
-  if (report_path) {
-    nlohmann::ordered_json json = retarget_job_report(job);
-    json["inputs"]["output"] = out_path;
-    json["settings"]["camera"] = camera ? nlohmann::ordered_json(camera->kind) : nlohmann::ordered_json();
-    json["timings_s"]["command"]["write_outputs"] = write_seconds;
-    json["timings_s"]["command"]["total"] = total_seconds;
-    report_file.emplace(*report_path);
-    report_file->write_text(json.dump(2) + "\n");
-  }
-  std::vector<StagedFile*> outputs{&glb};
-  if (camera_json) outputs.push_back(&*camera_json);
-  if (report_file) outputs.push_back(&*report_file);
-  commit_all(outputs);
-
-  std::printf("timings    %s, write %.3f s; total %.3f s\n", retarget_job_timings(job).c_str(), write_seconds,
-              total_seconds);
-  std::printf("wrote      %s (%d frames at %.6g fps, quality %s%s%s)%s%s%s%s\n", out_path.c_str(), job.clip().frame_count(),
-              job.clip().fps, retarget::quality_name(settings.quality), camera ? ", camera " : "",
-              camera ? camera->kind.c_str() : "", report_path ? ", " : "", report_path ? report_path->c_str() : "",
+  const scene::SceneResult result = scene::run_scene(scene, print_progress);
+  const scene::RetargetedActor& retargeted = *result.actors[0].retargeted;
+  std::printf("timings    %s, write %.3f s; total %.3f s\n", scene::actor_timings(retargeted).c_str(),
+              result.seconds.total - result.seconds.retarget, result.seconds.total);
+  const std::string camera_kind = result.cameras.empty() ? "" : result.cameras[0].kind;
+  std::printf("wrote      %s (%d frames at %.6g fps, quality %s%s%s)%s%s%s%s\n", out_path.c_str(), result.frames,
+              result.fps, retarget::quality_name(retargeted.request.quality), camera_kind.empty() ? "" : ", camera ",
+              camera_kind.c_str(), report_path ? ", " : "", report_path ? report_path->c_str() : "",
               camera_json_path ? ", " : "", camera_json_path ? camera_json_path->c_str() : "");
   return 0;
 }

@@ -15,5 +15,6 @@ int run_demo(const std::vector<std::string>& arguments);
 int run_retarget(const std::vector<std::string>& arguments);
 int run_trajectories(const std::vector<std::string>& arguments);
 int run_point_cache(const std::vector<std::string>& arguments);
+int run_scene(const std::vector<std::string>& arguments);
 
 }  // namespace odyssey::cli

@@ -28,6 +28,8 @@ constexpr Command kCommands[] = {
      odyssey::cli::run_trajectories},
     {"point-cache", "retarget, then write the deformed mesh every frame as a PC2 point cache with its rest OBJ",
      odyssey::cli::run_point_cache},
+    {"scene", "run a scene file: several actors, props and cameras in one shot; tracks, caches, cameras, report",
+     odyssey::cli::run_scene},
 };
 
 void print_usage(std::FILE* stream) {

@@ -9,6 +9,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
+#include <stdexcept>
 #include <utility>
 
 #include "mocap_io/input_error.h"
@@ -50,6 +52,38 @@ void TempFile::commit() {
     throw InputError(target_, "cannot rename " + temp_ + " into place: " + std::strerror(errno));
   }
   committed_ = true;
+}
+
+StagedOutputs::~StagedOutputs() {
+  std::error_code ignored;
+  for (const Entry& entry : entries_) {
+    if (!entry.committed) std::filesystem::remove(entry.temp, ignored);
+  }
+}
+
+std::string StagedOutputs::stage(const std::string& target) {
+  const std::filesystem::path absolute = std::filesystem::absolute(target);
+  for (const Entry& entry : entries_) {
+    if (std::filesystem::absolute(entry.target) == absolute) throw std::invalid_argument("two outputs name " + target);
+  }
+  entries_.push_back({target, target + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(temp_counter++)});
+  return entries_.back().temp;
+}
+
+void StagedOutputs::commit() {
+  for (Entry& entry : entries_) {
+    std::error_code error;
+    std::filesystem::rename(entry.temp, entry.target, error);
+    if (error) {
+      for (Entry& done : entries_) {
+        std::error_code ignored;
+        if (done.committed) std::filesystem::remove(done.target, ignored);
+        done.committed = false;
+      }
+      throw InputError(entry.target, "cannot rename " + entry.temp + " into place: " + error.message());
+    }
+    entry.committed = true;
+  }
 }
 
 void write_file_atomically(const std::string& path, std::span<const std::byte> bytes) {

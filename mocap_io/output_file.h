@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <span>
 #include <string>
+#include <vector>
 
 namespace odyssey::io {
 
@@ -31,6 +32,30 @@ class TempFile {
   std::string target_, temp_;
   std::FILE* file_ = nullptr;
   bool committed_ = false;
+};
+
+// Outputs that appear together or not at all: the one way a command, a scene or a batch job
+// commits files. stage() names a temporary path beside each target (same folder, so the rename
+// cannot cross file systems) for a writer to fill; commit() renames them all into place, in order,
+// and when one rename fails removes the ones already renamed and rethrows. Temporaries of a set
+// never committed are removed when it goes.
+class StagedOutputs {
+ public:
+  StagedOutputs() = default;
+  ~StagedOutputs();
+  StagedOutputs(const StagedOutputs&) = delete;
+  StagedOutputs& operator=(const StagedOutputs&) = delete;
+
+  // Throws std::invalid_argument when `target` is already staged (two outputs naming one file).
+  std::string stage(const std::string& target);
+  void commit();
+
+ private:
+  struct Entry {
+    std::string target, temp;
+    bool committed = false;
+  };
+  std::vector<Entry> entries_;
 };
 
 // The whole file at once, through a TempFile.

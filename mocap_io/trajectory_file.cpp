@@ -126,6 +126,7 @@ struct Archive {
   Spool valids;
   Spool intrinsics;
   Spool extrinsics;
+  std::unique_ptr<Spool> visibility_codes;  // when the header asks for them
 };
 
 }  // namespace
@@ -170,6 +171,9 @@ TrajectoryFileWriter::TrajectoryFileWriter(std::string path, TrajectoryFileHeade
   s.path = std::move(path);
   s.header = std::move(header);
   s.archive = std::make_unique<Archive>(s.path, compress, N);
+  if (s.header.visibility_codes) {
+    s.archive->visibility_codes = std::make_unique<Spool>(s.path, "visibility_codes", DType::UInt8, std::vector<std::size_t>{N});
+  }
   s.archive->npz.begin_array("trajs_3d", DType::Float32, {T, N, 3});
 }
 
@@ -177,7 +181,8 @@ TrajectoryFileWriter::~TrajectoryFileWriter() = default;
 
 void TrajectoryFileWriter::append_frames(std::size_t count, std::span<const float> trajs_3d, std::span<const float> trajs_2d,
                                          std::span<const std::uint8_t> valids, std::span<const std::uint8_t> visibs,
-                                         std::span<const float> intrinsics, std::span<const float> extrinsics) {
+                                         std::span<const float> intrinsics, std::span<const float> extrinsics,
+                                         std::span<const std::uint8_t> visibility_codes) {
   State& s = *state_;
   Archive& archive = s.live();
   const std::size_t T = s.header.frames, N = s.header.points;
@@ -209,6 +214,22 @@ void TrajectoryFileWriter::append_frames(std::size_t count, std::span<const floa
     throw std::invalid_argument("trajectory file: visibs is 1 but valids 0 at " + position_text(s.written, bad, N) +
                                 " (a visible point must be valid)");
   }
+  check_size("visibility_codes", visibility_codes.size(), s.header.visibility_codes ? count * N : 0,
+             s.header.visibility_codes ? frames + " x " + std::to_string(N) + " points" : "files without codes");
+  // Each code agrees with the flags: visible exactly when 0; occluded (1, 2) only when valid;
+  // outside the image or behind the camera (3, 4) exactly when not valid.
+  for (std::size_t i = 0; i < visibility_codes.size(); ++i) {
+    const std::uint8_t code = visibility_codes[i];
+    const bool agrees = code == kVisible ? visibs[i] == 1
+                        : code <= kOccludedByProp ? valids[i] == 1 && visibs[i] == 0
+                        : code <= kBehindCamera ? valids[i] == 0
+                                                : false;
+    if (!agrees) {
+      throw std::invalid_argument("trajectory file: visibility code " + std::to_string(code) + " disagrees with valids " +
+                                  std::to_string(valids[i]) + " and visibs " + std::to_string(visibs[i]) + " at " +
+                                  position_text(s.written, i, N));
+    }
+  }
 
   try {
     archive.npz.append(trajs_3d);
@@ -217,6 +238,7 @@ void TrajectoryFileWriter::append_frames(std::size_t count, std::span<const floa
     archive.valids.write(std::as_bytes(valids));
     archive.intrinsics.write(std::as_bytes(intrinsics));
     archive.extrinsics.write(std::as_bytes(extrinsics));
+    if (archive.visibility_codes) archive.visibility_codes->write(std::as_bytes(visibility_codes));
   } catch (...) {
     s.archive.reset();  // the arrays are out of step now: remove everything
     throw;
@@ -241,6 +263,7 @@ void TrajectoryFileWriter::close() {
   std::vector<std::byte> buffer(kCopyBlockBytes);
   for (Spool* spool : {&archive.trajs_2d, &archive.visibs, &archive.valids, &archive.intrinsics, &archive.extrinsics})
     spool->copy_into(archive.npz, h.frames, buffer);
+  if (archive.visibility_codes) archive.visibility_codes->copy_into(archive.npz, h.frames, buffer);
   archive.npz.add("point_vertex_ids", NpyArray::from_int32(h.point_vertex_ids, {N, 3}));
   archive.npz.add("point_barycentric", NpyArray::from_float32(h.point_barycentric, {N, 3}));
   archive.npz.add("point_actor_ids", NpyArray::from_int32(h.point_actor_ids, {N}));

@@ -15,7 +15,13 @@
 //                                         order (the vertex order of the point cache's rest OBJ);
 //                                         a vertex sample names its vertex three times
 //   point_barycentric  float32 [N, 3]     weights of those corners; (1, 0, 0) for a vertex sample
-//   point_actor_ids    int32   [N]        which actor of the scene a point is on (0 for one character)
+//   point_actor_ids    int32   [N]        which actor of the scene a point is on: 0, 1, ... in the
+//                                         scene's order; props are -1 - k for prop k (the first
+//                                         prop -1)
+//   visibility_codes   uint8   [T, N]     why a point is or is not visible (files of scenes, and of
+//                                         odyssey trajectories): 0 visible, 1 occluded by an actor
+//                                         (its own body included), 2 occluded by a prop, 3 outside
+//                                         the image, 4 behind the camera
 //   fps                float64 []         frames per second
 //
 // float32 throughout, never float16 (half floats resolve only half a pixel past 512 px).
@@ -45,7 +51,12 @@ struct TrajectoryFileHeader {
   std::vector<std::int32_t> point_vertex_ids;  // N x 3
   std::vector<float> point_barycentric;        // N x 3
   std::vector<std::int32_t> point_actor_ids;   // N
+  bool visibility_codes = false;               // write visibility_codes [T, N]
 };
+
+// The values of visibility_codes.
+inline constexpr std::uint8_t kVisible = 0, kOccludedByActor = 1, kOccludedByProp = 2, kOutsideImage = 3,
+                              kBehindCamera = 4;
 
 class TrajectoryFileWriter {
  public:
@@ -59,12 +70,14 @@ class TrajectoryFileWriter {
 
   // `count` frames, each array frame after frame: trajs_3d count*N*3, trajs_2d count*N*2, valids
   // and visibs count*N (1 or 0 each), intrinsics count*9 and extrinsics count*16, matrices
-  // row-major. Throws std::invalid_argument naming both sizes when a span is the wrong size or the
-  // frames would pass T, when a value is not finite or a bool not 0 or 1, and when a point is
-  // visible but not valid; InputError when a write fails.
+  // row-major; visibility_codes count*N when the header asks for them, else empty. Throws
+  // std::invalid_argument naming both sizes when a span is the wrong size or the frames would
+  // pass T, when a value is not finite or a bool not 0 or 1, when a point is visible but not
+  // valid, and when a code disagrees with the flags; InputError when a write fails.
   void append_frames(std::size_t count, std::span<const float> trajs_3d, std::span<const float> trajs_2d,
                      std::span<const std::uint8_t> valids, std::span<const std::uint8_t> visibs,
-                     std::span<const float> intrinsics, std::span<const float> extrinsics);
+                     std::span<const float> intrinsics, std::span<const float> extrinsics,
+                     std::span<const std::uint8_t> visibility_codes = {});
 
   std::size_t frames_written() const;
 

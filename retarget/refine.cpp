@@ -607,4 +607,26 @@ RefineSummary refine(RetargetResult& result, const Clip& source, const RefineOpt
   return summary;
 }
 
+namespace {
+constexpr RefineWeightName kRefineWeightNames[] = {
+    {"bone_direction", &RefineWeights::bone_direction},
+    {"end_effector", &RefineWeights::end_effector},
+    {"foot_contact", &RefineWeights::foot_contact},
+    {"floor", &RefineWeights::floor},
+    {"pose", &RefineWeights::pose},
+    {"pelvis", &RefineWeights::pelvis},
+    {"smoothness", &RefineWeights::smoothness},
+    {"pelvis_smoothness", &RefineWeights::pelvis_smoothness},
+};
+}  // namespace
+
+std::span<const RefineWeightName> refine_weight_names() { return kRefineWeightNames; }
+
+double* refine_weight(RefineWeights& weights, std::string_view name) {
+  for (const RefineWeightName& entry : kRefineWeightNames) {
+    if (name == entry.name) return &(weights.*(entry.weight));
+  }
+  return nullptr;
+}
+
 }  // namespace odyssey::retarget

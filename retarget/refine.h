@@ -103,6 +103,7 @@
 #pragma once
 
 #include <optional>
+#include <span>
 #include <string_view>
 
 #include "retarget/retarget.h"
@@ -146,6 +147,16 @@ struct RefineOptions {
 //   millimetres), smoothness 0.0005 per rad/s^2 and pelvis smoothness 0.01 per m/s^2, windows of
 //   32 frames with 8 frames of context on each side.
 RefineOptions default_refine_options(Quality quality);
+
+// The weights by the names that command lines, scene files and reports use ("bone_direction",
+// "end_effector", "foot_contact", "floor", "pose", "pelvis", "smoothness", "pelvis_smoothness").
+struct RefineWeightName {
+  const char* name;
+  double RefineWeights::*weight;
+};
+std::span<const RefineWeightName> refine_weight_names();
+// The weight called `name`, or nullptr for an unknown name.
+double* refine_weight(RefineWeights& weights, std::string_view name);
 
 struct RefineSummary {
   double seconds = 0;        // wall clock, all of refine() (plan, solvers, metrics)

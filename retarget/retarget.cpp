@@ -104,7 +104,7 @@ RetargetResult retarget_fast(const Clip& source, const BoneMap& source_map, cons
   return result;
 }
 
-std::string report_json(const RetargetReport& report) {
+nlohmann::ordered_json report_json(const RetargetReport& report) {
   nlohmann::ordered_json json;
   json["quality"] = report.quality;
   json["source"] = {{"name", report.source_name}, {"frames", report.frames}, {"fps", report.fps},
@@ -142,7 +142,7 @@ std::string report_json(const RetargetReport& report) {
   json["metrics"] = {{"source", metrics_json(report.source_metrics, false)}, {"result", metrics_json(report.result_metrics, true)}};
   json["timings_s"] = {{"rig", report.timings.rig}, {"contacts", report.timings.contacts},
                        {"transfer", report.timings.transfer}, {"metrics", report.timings.metrics}};
-  return json.dump(2);
+  return json;
 }
 
 }  // namespace odyssey::retarget

@@ -5,6 +5,7 @@
 // replaces result.transfer.clip and result.report.result_metrics with its own.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -76,7 +77,7 @@ RetargetResult retarget_fast(const Clip& source, const BoneMap& source_map, cons
                              const BoneMap& target_map, const RetargetOptions& options = {},
                              const std::string& source_name = "source");
 
-// The report as JSON text (two-space indent), for the CLI to write.
-std::string report_json(const RetargetReport& report);
+// The report as a JSON object, for the reports of actors, scenes and batches.
+nlohmann::ordered_json report_json(const RetargetReport& report);
 
 }  // namespace odyssey::retarget

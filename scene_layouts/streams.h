@@ -1,31 +1,41 @@
-// The per-frame streams renderers and annotators consume, produced from a character and the clip
-// that drives it, a chunk of frames at a time so memory does not grow with the clip:
+// The frame loop every output of a shot goes through, a chunk of frames at a time so memory does
+// not grow with the clip, and the sinks it feeds.
 //
-// - Trajectories: sampled surface points (skinning/sampling.h) moved with the skinned mesh, their
-//   projections into a camera path's frames, their visibility, and the cameras, into a
-//   TrajectoryFileWriter (mocap_io/trajectory_file.h). Per chunk of C frames: forward kinematics of
-//   each frame (Clip::world_pose); SurfacePointSkinner over the points' corner vertices; the whole
-//   mesh skinned (LinearBlendSkinner) and drawn into the frame's depth buffer
-//   (scene_layouts/visibility.h); then for every point the pinhole projection of skeleton/camera.h
-//   (u, v in pixels; valid when in front of the camera and inside the image; u = v = 0 behind it)
-//   and the depth test (visible: valid and not hidden by any part of the character).
-// - Point cache: every vertex of every mesh, skinned with LinearBlendSkinner, into a Pc2Writer.
+// Per chunk of C frames: forward kinematics of every actor (Clip::world_pose); every tracked point
+// skinned once (SurfacePointSkinner over the points' corner vertices; props' points are static);
+// each actor's whole mesh skinned once a frame where some camera may see it or a sink asks for its
+// mesh; then per camera and frame: the occluders it may see (every prop, the actors whose
+// conservative box meets its view) drawn into that camera's depth buffer (visibility.h), and every
+// point projected (skeleton/camera.h) and classified: visible, occluded by an actor or by a prop
+// (by the owner of the triangle that hides it), outside the image, behind the camera. Sinks get
+// each chunk in order (write) between begin() and finish().
 //
-// Memory: the buffers of one chunk (joint transforms C x J, points C x N x 5 floats plus flags,
-// vertices C x V x 3 floats; C chosen for about 16 MiB) and one depth buffer, whatever the clip's
-// length; the writers stream to disk.
+// Culling: an actor's box for a frame is the box of its joints grown by 0.25 of its rest height
+// on every side (hands, feet and head reach beyond their joints by less). A camera skips the
+// actor's mesh when all eight corners lie behind it, or all project to one side of the image; no
+// triangle of the actor can then cover a pixel, so no point in the image changes. The frames
+// skipped are counted per actor and camera.
 //
-// Cameras inside the character. A static, orbiting or imported camera that sits inside the
-// character sees the mesh from inside, which is never what a dataset wants; with
-// `reject_camera_inside` the export stops with an error naming the frame when the camera centre
-// lies inside the axis-aligned box of the tracked points that frame (a conservative test: the
-// box is larger than the body, so a camera between the legs is refused too). An ego-head camera
-// sits at the head by design and is not tested (its own head, behind the eyes, is clipped by the
-// depth buffer's near plane and hides nothing in front of it).
+// An ego camera rides inside its own actor's head: the triangles of that actor whose corners are
+// weighted mostly to the head joint or below it (face, eyes, jaw) are not occluders for it, or the
+// face in front of the eyes would hide everything; the rest of its body still occludes.
+//
+// Cameras inside geometry: a static, orbiting or imported camera whose centre lies inside the box
+// of an actor's tracked points (its joints when it has none) or inside a prop's box (a ground
+// plane has no inside) is an error naming the camera, the actor or prop and the frame. An ego
+// camera sits in its own actor's head by design and is tested against the others only.
+//
+// Memory: per chunk, the actors' joint transforms, the points (C x N x 3 floats, and per camera
+// C x N x 2 floats and 3 bytes), the skinned meshes (C x V x 3 floats), C chosen for about 16 MiB;
+// one depth buffer per camera; the sinks stream to disk.
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <memory>
 #include <span>
+#include <string>
+#include <vector>
 
 #include "mocap_io/point_cache.h"
 #include "mocap_io/trajectory_file.h"
@@ -36,43 +46,112 @@
 
 namespace odyssey::scene {
 
+// An actor as the loop sees it: a character, the clip that drives it over the shot (one frame per
+// output frame, on the character's skeleton) and the points tracked on it.
+struct StreamActor {
+  std::string name;
+  const Character* character = nullptr;
+  const Clip* clip = nullptr;
+  std::vector<skinning::SurfacePoint> points;
+  bool mesh_every_frame = false;  // a sink needs its whole mesh each frame (a point cache)
+  int head_joint = -1;            // an ego camera on this actor does not see its own head's subtree
+};
+
+// Every prop as one static character: joint 0 at the identity, mesh k is prop k, already in world
+// coordinates.
+struct StreamProps {
+  std::vector<std::string> names;
+  Character character;
+  std::vector<skinning::SurfacePoint> points;
+};
+
+struct StreamCamera {
+  std::string name;
+  const CameraPath* path = nullptr;
+  int own_actor = -1;  // ego: the actor it rides on
+  bool tracks = true;  // project and classify the points (a trajectory sink listens)
+};
+
 struct StreamOptions {
-  int chunk_frames = 0;              // frames per chunk; 0: as many as fit in about 16 MiB of output (1 to 256)
-  int threads = 1;                   // skinning threads, the caller included
-  bool reject_camera_inside = false;
+  int chunk_frames = 0;  // frames per chunk; 0: as many as fit in about 16 MiB of output (1 to 256)
+  int threads = 1;       // skinning threads, the caller included
+  bool reject_camera_inside = true;
 };
 
-struct TrajectoryExportSummary {
+// One camera's share of a chunk, frame after frame.
+struct CameraChunk {
+  std::span<const float> trajs_2d;                     // C x N x 2
+  std::span<const std::uint8_t> valids, visibs;        // C x N
+  std::span<const std::uint8_t> visibility_codes;      // C x N (io::kVisible ...)
+  std::span<const float> intrinsics, extrinsics;       // C x 9, C x 16, row-major
+};
+
+// What the sinks see of a chunk. Points are numbered actor after actor in the scene's order, then
+// the props' points.
+struct FrameChunk {
+  int first = 0, count = 0;
+  std::span<const float> trajs_3d;                     // C x N x 3
+  std::span<const std::span<const float>> actor_vertices;  // per actor: C x V x 3 (mesh_every_frame), else empty
+  std::span<const CameraChunk> cameras;                // per camera (empty where it does not track)
+};
+
+// begin() before the first chunk, write() once per chunk in frame order, finish() after the last:
+// a sink completes its file under the name it was given (a staged temporary of StagedOutputs).
+class StreamSink {
+ public:
+  virtual ~StreamSink() = default;
+  virtual void begin() {}
+  virtual void write(const FrameChunk& chunk) = 0;
+  virtual void finish() {}
+};
+
+// Trajectories of every point in camera `camera`, into a writer the caller made (and closes).
+class TrajectorySink : public StreamSink {
+ public:
+  TrajectorySink(int camera, io::TrajectoryFileWriter& writer) : camera_(camera), writer_(writer) {}
+  void write(const FrameChunk& chunk) override;
+
+ private:
+  int camera_;
+  io::TrajectoryFileWriter& writer_;
+};
+
+// The whole mesh of actor `actor` every frame, into a PC2 writer the caller made (and closes).
+class PointCacheSink : public StreamSink {
+ public:
+  PointCacheSink(int actor, io::Pc2Writer& writer) : actor_(actor), writer_(writer) {}
+  void write(const FrameChunk& chunk) override;
+
+ private:
+  int actor_;
+  io::Pc2Writer& writer_;
+};
+
+struct CameraStreamSummary {
+  std::string name;
+  double valid_fraction = 0, visible_fraction = 0;       // of point-frames
+  double occluded_by_actor_fraction = 0, occluded_by_prop_fraction = 0;
+  std::vector<long> actor_frames_culled;                 // per actor: frames whose mesh it skipped
+};
+
+struct StreamSummary {
   std::size_t frames = 0, points = 0;
-  std::size_t skinned_vertices = 0;  // the points' corner vertices, skinned each frame
-  double valid_fraction = 0;         // share of (frame, point) pairs that are valid
-  double visible_fraction = 0;       // share that are visible
-  double seconds = 0;                // wall clock of the export loop (skinning, projection, writing)
+  std::vector<long> actor_mesh_frames;  // per actor: frames whose whole mesh was skinned
+  std::vector<CameraStreamSummary> cameras;
+  double seconds = 0;                   // wall clock of the loop (skinning, projection, sinks)
 };
 
-// The point description a trajectory file stores: corners as vertex indices numbered across the
-// character's meshes in order, barycentric weights, actor `actor` for every point. `frames` and
-// `fps` complete the header.
-io::TrajectoryFileHeader trajectory_file_header(const Character& character, std::span<const skinning::SurfacePoint> points,
-                                                std::size_t frames, double fps, int actor = 0);
+// The point description of a trajectory file for these actors and props: corners numbered across
+// each owner's meshes in order, point_actor_ids the actor's index, -1 - k for prop k.
+io::TrajectoryFileHeader trajectory_file_header(std::span<const StreamActor> actors, const StreamProps* props,
+                                                std::size_t frames, double fps);
 
-// Streams every frame of `clip` (a clip on character.skeleton) through `writer`, which must have
-// been made with trajectory_file_header(character, points, clip frames, clip fps); does not close
-// it. Throws std::invalid_argument when the camera path's frame count differs from the clip's or
-// it does not validate, the clip is not on the character's skeleton, or (reject_camera_inside) a
-// camera is inside the character, naming the frame.
-TrajectoryExportSummary export_trajectories(const Character& character, const Clip& clip,
-                                            std::span<const skinning::SurfacePoint> points, const CameraPath& camera,
-                                            io::TrajectoryFileWriter& writer, const StreamOptions& options = {});
-
-struct PointCacheSummary {
-  std::size_t frames = 0, vertices = 0;
-  double seconds = 0;
-};
-
-// Streams every frame of `clip` through `writer` (made for the character's total vertex count and
-// the clip's frame count); does not close it.
-PointCacheSummary export_point_cache(const Character& character, const Clip& clip, io::Pc2Writer& writer,
-                                     const StreamOptions& options = {});
+// Runs the loop over every frame of the actors' clips (all the same length and rate; each on its
+// character's skeleton) and every camera (paths of the same length). Throws std::invalid_argument
+// naming the actor, camera or frame for mismatched clips or paths, an invalid path, or a camera
+// inside geometry (reject_camera_inside); sinks' own errors propagate.
+StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps* props,
+                          std::span<const StreamCamera> cameras, std::span<StreamSink* const> sinks,
+                          const StreamOptions& options = {});
 
 }  // namespace odyssey::scene

@@ -65,13 +65,17 @@ float DepthBuffer::depth(int x, int y) const {
   return 1.0f / inverse_depth_[static_cast<std::size_t>(y) * width_ + x];
 }
 
-bool DepthBuffer::visible(const Eigen::Vector3d& point) const {
-  if (!intrinsics_) return false;
+bool DepthBuffer::visible(const Eigen::Vector3d& point) const { return classify(point).visible(); }
+
+PointVisibility DepthBuffer::classify(const Eigen::Vector3d& point) const {
+  using Reason = PointVisibility::Reason;
+  if (!intrinsics_) return {Reason::outside_image, kNoTriangle};
   const PinholeIntrinsics& k = *intrinsics_;
   // Written so that NaN fails every test.
-  if (!(point.z() > 0 && point.allFinite())) return false;
+  if (!point.allFinite()) return {Reason::outside_image, kNoTriangle};
+  if (!(point.z() > 0)) return {Reason::behind_camera, kNoTriangle};
   const double u = k.fx * point.x() / point.z() + k.cx, v = k.fy * point.y() / point.z() + k.cy;
-  if (!(u >= 0 && u < width_ && v >= 0 && v < height_)) return false;
+  if (!(u >= 0 && u < width_ && v >= 0 && v < height_)) return {Reason::outside_image, kNoTriangle};
 
   // Candidates, in the order tested: the distinct nearest triangles at the 3x3 centres around
   // (u, v) (the pixel holding it and its neighbours inside the image, skipping empty ones, whose
@@ -125,13 +129,13 @@ bool DepthBuffer::visible(const Eigen::Vector3d& point) const {
     const std::size_t t = 3 * std::size_t{candidates[c]};
     const double s =
         ray_parameter(camera_[triangles_[t]], camera_[triangles_[t + 1]], camera_[triangles_[t + 2]], point);
-    if (s > 0 && (1 - s) * distance > reach) return false;
+    if (s > 0 && (1 - s) * distance > reach) return {Reason::occluded, candidates[c]};
     for (int e = 0; e < 3; ++e) {
       const std::uint32_t other = neighbours_[t + e];
       if (other != kNoTriangle && meets_box(other)) add(other);
     }
   }
-  return true;
+  return {Reason::visible, kNoTriangle};
 }
 
 void DepthBuffer::render(const CameraPose& pose, const PinholeIntrinsics& k, std::span<const float> positions,

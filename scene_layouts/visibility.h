@@ -107,6 +107,15 @@
 
 namespace odyssey::scene {
 
+// Why a point is or is not visible, and what hides it.
+struct PointVisibility {
+  enum class Reason : std::uint8_t { visible, occluded, outside_image, behind_camera };
+  Reason reason = Reason::outside_image;
+  std::uint32_t occluder = 0xffffffff;  // occluded: the index of the hiding triangle in render's list
+
+  bool visible() const { return reason == Reason::visible; }
+};
+
 class DepthBuffer {
  public:
   static constexpr double kNearDepth = 1e-3;               // metres; the clipping plane z = near
@@ -140,6 +149,10 @@ class DepthBuffer {
   // with the last render's intrinsics, and no candidate triangle crossing its ray before it (see
   // "Visibility" above). False before the first render() and after one that threw.
   bool visible(const Eigen::Vector3d& point) const;
+  // The same, with the reason: behind_camera for z <= 0, outside_image for a projection outside
+  // the image, a non-finite point or before the first render, occluded with the first candidate
+  // found crossing the ray.
+  PointVisibility classify(const Eigen::Vector3d& point) const;
 
  private:
   struct ScreenVertex {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "skeleton/rotation.h"
 
@@ -63,6 +64,18 @@ Clip Clip::resampled(double target_fps) const {
   if (!(target_fps > 0) || !std::isfinite(target_fps)) {
     throw std::invalid_argument("target frame rate " + std::to_string(target_fps) + " is not positive");
   }
+  if (frame_count() == 0) return sampled_at({}, target_fps);
+  // A 1e-9 relative slack keeps the final frame when duration * fps is an integer up to rounding.
+  const int target_frames = static_cast<int>(std::floor(duration() * target_fps * (1 + 1e-9) + 1e-9)) + 1;
+  std::vector<double> times(target_frames);
+  for (int f = 0; f < target_frames; ++f) times[f] = f / target_fps;
+  return sampled_at(times, target_fps);
+}
+
+Clip Clip::sampled_at(std::span<const double> times, double target_fps) const {
+  if (!(target_fps > 0) || !std::isfinite(target_fps)) {
+    throw std::invalid_argument("target frame rate " + std::to_string(target_fps) + " is not positive");
+  }
   Clip out;
   out.skeleton = skeleton;
   out.fps = target_fps;
@@ -71,18 +84,17 @@ Clip Clip::resampled(double target_fps) const {
   if (frames == 0) return out;
   const int joints = joint_count();
   const std::size_t k = translated_joints.size();
-  // A 1e-9 relative slack keeps the final frame when duration * fps is an integer up to rounding.
-  const int target_frames = static_cast<int>(std::floor(duration() * target_fps * (1 + 1e-9) + 1e-9)) + 1;
-  out.rotations.resize(std::size_t(target_frames) * joints);
-  out.translations.resize(std::size_t(target_frames) * k);
-  for (int f = 0; f < target_frames; ++f) {
-    const double source_position = f * fps / target_fps;
+  out.rotations.resize(times.size() * joints);
+  out.translations.resize(times.size() * k);
+  for (std::size_t f = 0; f < times.size(); ++f) {
+    if (!std::isfinite(times[f])) throw std::invalid_argument("sample time " + std::to_string(f) + " is not finite");
+    const double source_position = std::clamp(times[f] * fps, 0.0, double(frames - 1));
     const int f0 = std::min(static_cast<int>(std::floor(source_position)), frames - 1);
     const int f1 = std::min(f0 + 1, frames - 1);
     const double alpha = std::clamp(source_position - f0, 0.0, 1.0);
     for (int j = 0; j < joints; ++j) {
       const Eigen::Quaterniond& q0 = rotation(f0, j);
-      out.rotations[std::size_t(f) * joints + j] = q0.slerp(alpha, sign_aligned(rotation(f1, j), q0)).normalized();
+      out.rotations[f * joints + j] = q0.slerp(alpha, sign_aligned(rotation(f1, j), q0)).normalized();
     }
     for (std::size_t t = 0; t < k; ++t) {
       out.translations[f * k + t] = (1 - alpha) * translations[f0 * k + t] + alpha * translations[f1 * k + t];

@@ -41,6 +41,10 @@ struct Clip {
   // rotations are slerped (short way) and translations interpolated linearly between the two
   // neighbouring source frames. The last frame is the last time <= the source duration.
   Clip resampled(double target_fps) const;
+  // The clip at any times (seconds from its first frame, clamped to [0, duration()]): frame k of
+  // the result, at `target_fps`, is the pose at times[k], interpolated as resampled() does.
+  // Throws std::invalid_argument for a non-finite time or a non-positive rate.
+  Clip sampled_at(std::span<const double> times, double target_fps) const;
 };
 
 }  // namespace odyssey

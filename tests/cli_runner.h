@@ -14,8 +14,10 @@ struct CliResult {
   std::string output;  // stdout and stderr together
 };
 
-inline CliResult run_cli(const std::string& arguments) {
-  const std::string command = std::string(ODYSSEY_CLI) + " " + arguments + " 2>&1";
+// The odyssey binary with `arguments`, run from the folder `working_dir` (empty: this process's).
+inline CliResult run_cli_in(const std::string& working_dir, const std::string& arguments) {
+  const std::string command =
+      (working_dir.empty() ? std::string() : "cd '" + working_dir + "' && ") + ODYSSEY_CLI + " " + arguments + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   CliResult result{-1, ""};
   if (!pipe) return result;
@@ -25,5 +27,7 @@ inline CliResult run_cli(const std::string& arguments) {
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
 }
+
+inline CliResult run_cli(const std::string& arguments) { return run_cli_in("", arguments); }
 
 }  // namespace odyssey::test_support

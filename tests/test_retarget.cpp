@@ -376,7 +376,7 @@ TEST(RetargetTest, ReportHoldsTheMapUnmappedJointsAndMetrics) {
   const Character figure = io::load_character(kAssets + "/characters/RiggedFigure.glb");
   const RetargetResult result = retarget_fast(source, humanoid_bone_map(source.skeleton, "walk"), figure,
                                               humanoid_bone_map(figure.skeleton, "figure"), {}, "cmu_walk_cgspeed.bvh");
-  const nlohmann::json report = nlohmann::json::parse(report_json(result.report));
+  const nlohmann::json report = nlohmann::json::parse(report_json(result.report).dump());
   EXPECT_EQ(report["quality"], "fast");
   EXPECT_EQ(report["source"]["name"], "cmu_walk_cgspeed.bvh");
   EXPECT_EQ(report["source"]["frames"], 344);

@@ -58,7 +58,7 @@ const std::string kFigure = std::string(ODYSSEY_DATA_DIR) + "/characters/RiggedF
 const auto run = test_support::run_cli;
 
 fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::path(ODYSSEY_SCRATCH_DIR) / "trajectories_cli";
+  const fs::path dir = odyssey::test_support::scratch_root() / "trajectories_cli";
   fs::create_directories(dir);
   return dir / name;
 }
@@ -128,7 +128,10 @@ TEST(TrajectoriesCliTest, PointsAndPixelsMatchTheReferenceAndNumpyLoadsTheFile) 
   ASSERT_EQ(extrinsics.shape(), (std::vector<std::size_t>{frames, 4, 4}));
   EXPECT_EQ(trajs_3d.dtype(), io::DType::Float32);
   EXPECT_EQ(valids.dtype(), io::DType::Bool);
-  const io::TrajectoryFileHeader header = scene::trajectory_file_header(motion.character, points, frames, 30);
+  scene::StreamActor actor;
+  actor.character = &motion.character;
+  actor.points = points;
+  const io::TrajectoryFileHeader header = scene::trajectory_file_header(std::span(&actor, 1), nullptr, frames, 30);
   EXPECT_EQ(file.load("point_vertex_ids").to_int64(),
             std::vector<std::int64_t>(header.point_vertex_ids.begin(), header.point_vertex_ids.end()));
 
@@ -381,7 +384,7 @@ TEST(TrajectoriesCliTest, BadInputFailsNamingTheProblemAndWritesNothing) {
       {" --hfov 180", 2, "--hfov"},
       {" --width 0", 2, "--width"},
       {" --camera none", 2, "need a camera"},
-      {inside, 1, "inside the character at frame 0"},
+      {inside, 1, "is inside actor 'RiggedFigure' at frame 0"},
       {" --camera orbit --camera-radius 0", 2, "--camera-radius"},
       {" --points 0", 2, "--points"},
   };

@@ -1,0 +1,116 @@
+// Whole-process speed and peak memory of `odyssey scene` on a shot the size of the dataset's: four
+// actors (the CMU jump retargeted at balanced onto four characters, slowed to fill the shot),
+// 20,000 tracked points (4,000 on each actor, 4,000 on the props), three 960x540 cameras (static,
+// orbit, ego on the first actor's head), a ground and four boxes; trajectories, camera paths and
+// the report written. Each row is one run of the release binary as a user types it, timed wall
+// clock, with the child's peak resident set from wait4; rows at two lengths show whether memory
+// stays flat as the clip grows. Prints a table. Arguments: the frame counts (default 500 2000);
+// ODYSSEY_BENCH_KEEP=1 keeps the scene files, logs and outputs.
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "bench/machine.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kShared = ODYSSEY_SHARED_DIR;
+
+std::string scene_json(int frames) {
+  const std::string jump = kShared + "/assets/mocap/cmu_jump_cgspeed.bvh";
+  const char* characters[] = {"RiggedFigure.glb", "CesiumMan.glb", "RobotExpressive.glb", "RiggedFigure.glb"};
+  // Each starts 2.5 m out on a diagonal and faces away from the centre, so the four jump apart.
+  const double xs[] = {-1.8, 1.8, 1.8, -1.8}, ys[] = {-1.8, -1.8, 1.8, 1.8}, yaws[] = {225, 315, 45, 135};
+  // The jump lasts 22.9 s; slowed so that it covers the shot.
+  const double speed = 22.9 / (frames / 30.0);
+  std::string actors;
+  for (int a = 0; a < 4; ++a) {
+    actors += std::string(a ? ",\n" : "") + "    {\"name\": \"actor" + std::to_string(a) + "\", \"motion\": \"" + jump +
+              "\", \"bvh_units\": \"cmu\", \"character\": \"" + kShared + "/assets/characters/" + characters[a] +
+              "\", \"quality\": \"balanced\", \"placement\": {\"x\": " + std::to_string(xs[a]) + ", \"y\": " +
+              std::to_string(ys[a]) + ", \"yaw\": " + std::to_string(yaws[a]) + "}, \"speed\": " + std::to_string(speed) +
+              ", \"points\": 4000}";
+  }
+  return "{\n  \"version\": 1, \"fps\": 30, \"seconds\": " + std::to_string((frames - 1) / 30.0) + ", \"seed\": 3,\n"
+         "  \"actors\": [\n" + actors + "\n  ],\n"
+         "  \"props\": [{\"type\": \"ground\", \"size\": [50, 50]},\n"
+         "    {\"type\": \"box\", \"size\": [1, 1, 0.8], \"position\": [0, 0, 0]},\n"
+         "    {\"type\": \"box\", \"size\": [2, 0.5, 1.2], \"position\": [0, 14, 0]},\n"
+         "    {\"type\": \"box\", \"size\": [0.5, 2, 1.2], \"position\": [14, 0, 0]},\n"
+         "    {\"type\": \"box\", \"size\": [0.5, 0.5, 2], \"position\": [-14, -3, 0]}],\n"
+         "  \"cameras\": [{\"name\": \"static\", \"type\": \"static\", \"position\": [0, -20, 4], \"target\": [0, 0, 0.9]},\n"
+         "    {\"name\": \"orbit\", \"type\": \"orbit\", \"target\": [0, 0, 0.9], \"radius\": 18, \"height_m\": 3},\n"
+         "    {\"name\": \"ego\", \"type\": \"ego\", \"actor\": 0}],\n"
+         "  \"outputs\": {\"trajectories\": true, \"camera_paths\": true, \"report\": true, \"prop_points\": 4000, \"threads\": 2}\n}\n";
+}
+
+struct Run {
+  double seconds = 0, peak_mib = 0;
+  bool ok = false;
+};
+
+Run run(const std::string& command) {
+  const auto start = std::chrono::steady_clock::now();
+  const pid_t child = fork();
+  if (child == 0) {
+    execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  int status = 0;
+  rusage usage{};
+  Run result;
+  if (wait4(child, &status, 0, &usage) != child) return result;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.peak_mib = usage.ru_maxrss / 1024.0;
+  result.ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+  return result;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<int> lengths = {500, 2000};
+  if (argc > 1) {
+    lengths.clear();
+    for (int i = 1; i < argc; ++i) lengths.push_back(std::stoi(argv[i]));
+  }
+  const fs::path dir = fs::temp_directory_path() / ("odyssey_bench_scene_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::printf("| shot | frames | points | cameras | wall s | frames/s | point-frames/s per camera | peak memory (MiB) |\n"
+              "|---|---:|---:|---:|---:|---:|---:|---:|\n");
+  for (const int frames : lengths) {
+    const fs::path file = dir / ("shot_" + std::to_string(frames) + ".json");
+    std::ofstream(file) << scene_json(frames);
+    const Run result = run(std::string(ODYSSEY_CLI) + " scene " + file.string() + " --out " +
+                           (dir / ("out_" + std::to_string(frames))).string() + " --quiet > " +
+                           (dir / ("log_" + std::to_string(frames) + ".txt")).string() + " 2>&1");
+    if (!result.ok) {
+      std::printf("| 4 actors, 5 props | %d | failed: see %s |\n", frames, (dir / ("log_" + std::to_string(frames) + ".txt")).c_str());
+      continue;
+    }
+    if (!std::getenv("ODYSSEY_BENCH_KEEP")) {
+      fs::remove(file);
+      fs::remove(dir / ("log_" + std::to_string(frames) + ".txt"));
+    }
+    std::printf("| 4 actors (balanced), 5 props | %d | 20,000 | 3 | %.1f | %.0f | %.2f M | %.0f |\n", frames, result.seconds,
+                frames / result.seconds, 20000.0 * frames / result.seconds / 1e6, result.peak_mib);
+    std::fflush(stdout);
+    if (!std::getenv("ODYSSEY_BENCH_KEEP")) fs::remove_all(dir / ("out_" + std::to_string(frames)));
+  }
+  std::error_code ignored;
+  fs::remove(dir, ignored);  // only when empty: a failed run's scene and log stay for a look
+  std::printf("\nmachine: %s, %u threads; 960x540; retargeting, skinning, visibility and writing included\n",
+              odyssey::bench::cpu_model().c_str(), std::thread::hardware_concurrency());
+  return 0;
+}

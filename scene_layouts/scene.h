@@ -1,0 +1,124 @@
+// A shot: actors (a motion retargeted onto a character, placed in time and on the floor), props
+// (static rigid geometry), cameras, and the outputs asked for. run_scene (pipeline.h) runs it;
+// scene_file.h reads it from JSON; the single-actor commands build a one-actor scene.
+//
+// Time. The scene runs at `fps` for `seconds` (default: until the last actor's clip ends). Actor k
+// maps scene time t to its retargeted clip's time
+//   c(t) = clamp(trim_start + speed (t - start), trim_start, trim_end),
+// so before `start` it holds its first pose and after its clip ends its last.
+//
+// Placement on the floor (z = 0 stays where the retargeting put the feet): "as recorded" keeps the
+// motion where the capture had it; a fixed placement turns the whole motion about the vertical
+// through the actor's root at scene time 0 so that the actor faces `yaw` degrees there (from +x,
+// counter-clockwise seen from above; its facing is its rest facing turned as its pelvis turned)
+// and moves that root to (x, y); a random placement draws x, y uniformly in `region` and yaw in
+// [0, 360) from the scene's seed, drawing again while the actor's footprint meets another's.
+// Footprints: a disc about the root's horizontal position of radius 0.15 of the character's rest
+// height, swept over the scene's frames; two actors whose discs overlap in some frame are an
+// error naming both and the frame (or, placed at random, drawn again).
+//
+// Props are static rigid geometry: a ground plane (size x, y, centred on `position`), a box (size
+// x, y, z; its bottom face centred on `position`), or a mesh file (glTF/GLB at its rest pose, or
+// OBJ, read Y up like Blender's default export unless `up_z`), each turned by `yaw` degrees about
+// the vertical and scaled by `scale` before it is moved to `position`.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scene_layouts/actor.h"
+#include "skinning/sampling.h"
+
+namespace odyssey::scene {
+
+struct Placement {
+  enum class Kind { as_recorded, fixed, random };
+  Kind kind = Kind::as_recorded;
+  double x = 0, y = 0, yaw_deg = 0;                               // fixed
+  Eigen::AlignedBox2d region{Eigen::Vector2d(-2, -2), Eigen::Vector2d(2, 2)};  // random
+};
+
+struct SceneActor {
+  std::string name;  // unique in the scene; names its output files
+  RetargetRequest retarget;
+  Placement placement;
+  double start_s = 0;                   // scene time at which the (trimmed) clip starts
+  double trim_start_s = 0;              // clip time of the first pose used
+  std::optional<double> trim_end_s;     // clip time of the last (default: the clip's end)
+  double speed = 1;                     // > 0; 2 plays the clip twice as fast
+  std::optional<int> points;            // tracked points on it (default: outputs.points_per_actor)
+  skinning::SamplingMode sampling = skinning::SamplingMode::surface;
+};
+
+struct Prop {
+  enum class Kind { ground, box, mesh };
+  Kind kind = Kind::box;
+  std::string name;
+  Eigen::Vector3d size = Eigen::Vector3d::Ones();  // ground: x, y; box: x, y, z (metres)
+  std::string path;                                // mesh: .glb, .gltf or .obj
+  bool up_z = false;                               // mesh from OBJ: already Z up
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  double yaw_deg = 0, scale = 1;
+};
+
+struct SceneCamera {
+  enum class Kind { fixed, orbit, ego, file };  // fixed is the file format's "static"
+  Kind kind = Kind::fixed;
+  std::string name;  // unique in the scene; names its output files
+  int width = 960, height = 540;
+  double hfov_deg = 80;
+  // Static and orbit; unset values follow the actors' framing (pipeline.h).
+  std::optional<Eigen::Vector3d> position, target;
+  std::optional<double> radius, height_m, start_angle_deg;
+  double period_s = 10;
+  // Ego: on actor `actor`'s head; unset offsets are 0.06 and 0.047 of its rest height.
+  int actor = 0;
+  std::optional<double> eye_forward, eye_up;
+  double smoothing_s = 0;
+  // File: a camera path JSON with one frame per scene frame.
+  std::string path;
+  // Seeded jitter (metres, each axis uniform in [-jitter, jitter], drawn once per camera from the
+  // scene's seed) of a static camera's centre, or of an orbit's target and height.
+  double jitter_m = 0;
+};
+
+// Files to write; an empty path asks for nothing. Vectors are empty or one entry per camera
+// (trajectories, camera paths) or per actor (point caches, with the rest OBJ beside each).
+struct SceneOutputs {
+  std::vector<std::string> trajectories, camera_paths, point_caches;
+  std::vector<std::string> rest_objs;      // per actor with a point cache; empty: the cache's path with .obj
+  std::vector<std::string> actor_reports;  // per actor: its retargeting report (JSON)
+  std::string glb;     // the retargeted actor, with the first camera, as an animated GLB: one actor, no props
+  std::string report;  // the scene's report (JSON)
+  int points_per_actor = 5000;
+  int prop_points = 0;  // tracked points on the props, shared by area
+  bool body_points_only = false;  // no tracked points below the wrists (the fingers)
+  bool compress = false;          // deflate the trajectory npz members
+  int chunk_frames = 0;           // 0: about 16 MiB of output per chunk
+  int threads = 1;                // skinning threads
+};
+
+struct Scene {
+  std::string name = "scene";
+  double fps = 30;
+  std::optional<double> seconds;
+  std::uint64_t seed = 0;
+  std::vector<SceneActor> actors;
+  std::vector<Prop> props;
+  std::vector<SceneCamera> cameras;
+  SceneOutputs outputs;
+};
+
+// "DIR/trajectories_<camera>.npz", "DIR/camera_<camera>.json", "DIR/point_cache_<actor>.pc2" and
+// "DIR/report.json" for what `which` asks for.
+// (and "DIR/retarget_<actor>.json")
+struct OutputSelection {
+  bool trajectories = true, camera_paths = true, point_caches = false, actor_reports = false, report = true;
+};
+void set_outputs_in_folder(Scene& scene, const std::string& folder, const OutputSelection& which);
+
+}  // namespace odyssey::scene

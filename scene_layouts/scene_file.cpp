@@ -1,0 +1,329 @@
+#include "scene_layouts/scene_file.h"
+
+#include <cstdlib>
+#include <filesystem>
+#include <set>
+
+#include "mocap_io/json_reader.h"
+#include "mocap_io/motion_file.h"
+
+namespace odyssey::scene {
+namespace {
+
+namespace fs = std::filesystem;
+using io::JsonValue;
+
+// A path as the file gives it: "data:..." in the bundled folder, relative to the file's folder,
+// or absolute.
+std::string resolve(const JsonValue& value, const fs::path& base) {
+  const std::string text = value.string();
+  if (text.empty()) value.fail("an empty path");
+  if (text.starts_with("data:")) return (fs::path(bundled_data_folder()) / text.substr(5)).lexically_normal().string();
+  const fs::path path(text);
+  return (path.is_absolute() ? path : base / path).lexically_normal().string();
+}
+
+Eigen::Vector3d vector3(const JsonValue& value) {
+  if (value.size() != 3) value.fail("expected [x, y, z], got " + std::to_string(value.size()) + " numbers");
+  return Eigen::Vector3d(value[0].number(), value[1].number(), value[2].number());
+}
+
+std::string name_of(const JsonValue& item, const std::string& fallback) {
+  if (const auto name = item.find("name")) {
+    const std::string text = name->string();
+    if (text.empty() || text.find_first_of("/\\\0", 0, 3) != std::string::npos || text == "." || text == "..") {
+      name->fail("a name must be non-empty and hold no slash (it names output files)");
+    }
+    return text;
+  }
+  return fallback;
+}
+
+SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& base) {
+  item.allow_only({"name", "motion", "character", "model", "bvh_units", "quality", "parts", "fps", "weights", "map",
+                   "source_map", "source_rest", "placement", "start", "trim", "speed", "points", "sampling"});
+  SceneActor actor;
+  actor.name = name_of(item, "actor" + std::to_string(index));
+  retarget::Quality quality = retarget::Quality::balanced;
+  if (const auto value = item.find("quality")) {
+    const auto parsed = retarget::parse_quality(value->string());
+    if (!parsed) value->fail("expected fast, balanced or accurate");
+    quality = *parsed;
+  }
+  actor.retarget = retarget_request(resolve(item.member("motion"), base), resolve(item.member("character"), base), quality);
+  RetargetRequest& r = actor.retarget;
+  if (const auto value = item.find("model")) r.model_path = resolve(*value, base);
+  if (const auto value = item.find("map")) r.map_path = resolve(*value, base);
+  if (const auto value = item.find("source_map")) r.source_map_path = resolve(*value, base);
+  if (const auto value = item.find("bvh_units")) {
+    r.bvh_metres_per_unit = value->is_number() ? std::optional<double>(value->number()) : io::parse_bvh_units(value->string());
+    if (!r.bvh_metres_per_unit || !(*r.bvh_metres_per_unit > 0)) value->fail(std::string("expected ") + io::kBvhUnitsHelp);
+  }
+  if (const auto value = item.find("parts")) {
+    const auto parts = retarget::parse_parts(value->string());
+    if (!parts) value->fail("expected body, body+hands or all");
+    r.parts = *parts;
+  }
+  if (const auto value = item.find("weights")) {
+    if (!value->is_object()) value->fail("expected an object of weights, e.g. {\"foot_contact\": 50}");
+    for (const auto& [name, weight] : value->raw().items()) {
+      double* target = retarget::refine_weight(r.refine_options.weights, name);
+      const JsonValue entry = value->member(name);
+      if (!target) entry.fail("unknown refinement weight");
+      *target = entry.number_in(0, 1e12);
+    }
+  }
+  if (const auto value = item.find("source_rest")) {
+    const std::string text = value->string();
+    if (text == "rest") {
+      r.options.source_rest = retarget::SourceRest::rest;
+    } else if (text == "first-frame") {
+      r.options.source_rest = retarget::SourceRest::first_frame;
+    } else {
+      value->fail("expected rest or first-frame");
+    }
+  }
+  if (const auto value = item.find("placement")) {
+    if (value->is_string()) {
+      if (value->string() != "as recorded") value->fail("expected \"as recorded\" or an object");
+    } else {
+      value->allow_only({"x", "y", "yaw", "region"});
+      if (const auto region = value->find("region")) {
+        if (value->find("x") || value->find("y")) region->fail("give a region or x and y, not both");
+        if (region->size() != 4) region->fail("expected [x_min, y_min, x_max, y_max]");
+        const Eigen::Vector2d low((*region)[0].number(), (*region)[1].number());
+        const Eigen::Vector2d high((*region)[2].number(), (*region)[3].number());
+        if (!(high.array() >= low.array()).all()) region->fail("the maximum lies below the minimum");
+        actor.placement.kind = Placement::Kind::random;
+        actor.placement.region = Eigen::AlignedBox2d(low, high);
+        if (value->find("yaw")) value->member("yaw").fail("a random placement draws the yaw too");
+      } else {
+        actor.placement.kind = Placement::Kind::fixed;
+        actor.placement.x = value->member("x").number();
+        actor.placement.y = value->member("y").number();
+        if (const auto yaw = value->find("yaw")) actor.placement.yaw_deg = yaw->number();
+      }
+    }
+  }
+  if (const auto value = item.find("start")) actor.start_s = value->number_in(-1e6, 1e6);
+  if (const auto value = item.find("trim")) {
+    if (value->size() != 2) value->fail("expected [from, to] in seconds of the clip");
+    actor.trim_start_s = (*value)[0].number_in(0, 1e7);
+    actor.trim_end_s = (*value)[1].number_in(0, 1e7);
+    if (!(*actor.trim_end_s > actor.trim_start_s)) (*value)[1].fail("the trim must end after it starts");
+  }
+  if (const auto value = item.find("speed")) {
+    actor.speed = value->number_in(1e-3, 1e3);
+  }
+  if (const auto value = item.find("fps")) r.fps = value->number_in(1e-3, 1e4);
+  if (const auto value = item.find("points")) actor.points = static_cast<int>(value->integer(0, 10'000'000));
+  if (const auto value = item.find("sampling")) {
+    const std::string text = value->string();
+    if (text != "surface" && text != "vertices") value->fail("expected surface or vertices");
+    actor.sampling = text == "surface" ? skinning::SamplingMode::surface : skinning::SamplingMode::vertices;
+  }
+  return actor;
+}
+
+Prop read_prop(const JsonValue& item, std::size_t index, const fs::path& base) {
+  item.allow_only({"name", "type", "size", "path", "up", "position", "yaw", "scale"});
+  Prop prop;
+  prop.name = name_of(item, "prop" + std::to_string(index));
+  const JsonValue type = item.member("type");
+  const std::string kind = type.string();
+  if (kind == "ground") {
+    prop.kind = Prop::Kind::ground;
+    const JsonValue size = item.member("size");
+    if (size.size() != 2) size.fail("a ground's size is [x, y] in metres");
+    prop.size = Eigen::Vector3d(size[0].number_in(1e-6, 1e6), size[1].number_in(1e-6, 1e6), 0);
+  } else if (kind == "box") {
+    prop.kind = Prop::Kind::box;
+    const JsonValue size = item.member("size");
+    if (size.size() != 3) size.fail("a box's size is [x, y, z] in metres");
+    prop.size = Eigen::Vector3d(size[0].number_in(1e-6, 1e6), size[1].number_in(1e-6, 1e6), size[2].number_in(1e-6, 1e6));
+  } else if (kind == "mesh") {
+    prop.kind = Prop::Kind::mesh;
+    prop.path = resolve(item.member("path"), base);
+    if (const auto up = item.find("up")) {
+      const std::string axis = up->string();
+      if (axis != "y" && axis != "z") up->fail("expected y or z");
+      prop.up_z = axis == "z";
+    }
+  } else {
+    type.fail("expected ground, box or mesh");
+  }
+  if (kind != "mesh") {
+    if (item.find("path")) item.member("path").fail("only a mesh prop has a path");
+    if (item.find("up")) item.member("up").fail("only a mesh prop has an up axis");
+  }
+  if (kind == "mesh" && item.find("size")) item.member("size").fail("a mesh prop takes scale, not size");
+  if (const auto value = item.find("position")) prop.position = vector3(*value);
+  if (const auto value = item.find("yaw")) prop.yaw_deg = value->number();
+  if (const auto value = item.find("scale")) prop.scale = value->number_in(1e-6, 1e6);
+  return prop;
+}
+
+SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vector<SceneActor>& actors,
+                        const fs::path& base) {
+  item.allow_only({"name", "type", "width", "height", "hfov", "position", "target", "radius", "height_m", "period",
+                   "start_angle", "actor", "eye_forward", "eye_up", "smoothing", "path", "jitter"});
+  SceneCamera camera;
+  camera.name = name_of(item, "camera" + std::to_string(index));
+  const JsonValue type = item.member("type");
+  const std::string kind = type.string();
+  const std::set<std::string> static_keys{"position", "target", "jitter"};
+  const std::set<std::string> orbit_keys{"target", "radius", "height_m", "period", "start_angle", "jitter"};
+  const std::set<std::string> ego_keys{"actor", "eye_forward", "eye_up", "smoothing"};
+  const std::set<std::string> file_keys{"path"};
+  const std::set<std::string>* allowed = nullptr;
+  if (kind == "static") {
+    camera.kind = SceneCamera::Kind::fixed;
+    allowed = &static_keys;
+  } else if (kind == "orbit") {
+    camera.kind = SceneCamera::Kind::orbit;
+    allowed = &orbit_keys;
+  } else if (kind == "ego") {
+    camera.kind = SceneCamera::Kind::ego;
+    allowed = &ego_keys;
+  } else if (kind == "file") {
+    camera.kind = SceneCamera::Kind::file;
+    allowed = &file_keys;
+  } else {
+    type.fail("expected static, orbit, ego or file");
+  }
+  for (const auto& [key, value] : item.raw().items()) {
+    const bool shared = key == "name" || key == "type" || (kind != "file" && (key == "width" || key == "height" || key == "hfov"));
+    if (!shared && !allowed->contains(key)) item.member(key).fail("not a key of a " + kind + " camera");
+  }
+  if (const auto value = item.find("width")) camera.width = static_cast<int>(value->integer(1, 1 << 16));
+  if (const auto value = item.find("height")) camera.height = static_cast<int>(value->integer(1, 1 << 16));
+  if (const auto value = item.find("hfov")) {
+    camera.hfov_deg = value->number();
+    if (!(camera.hfov_deg > 0 && camera.hfov_deg < 180)) value->fail("expected degrees between 0 and 180");
+  }
+  if (const auto value = item.find("position")) camera.position = vector3(*value);
+  if (const auto value = item.find("target")) camera.target = vector3(*value);
+  if (const auto value = item.find("radius")) camera.radius = value->number_in(1e-6, 1e6);
+  if (const auto value = item.find("height_m")) camera.height_m = value->number();
+  if (const auto value = item.find("period")) {
+    camera.period_s = value->number();
+    if (camera.period_s == 0) value->fail("a period of 0 seconds");
+  }
+  if (const auto value = item.find("start_angle")) camera.start_angle_deg = value->number();
+  if (const auto value = item.find("actor")) {
+    if (value->is_string()) {
+      const std::string name = value->string();
+      camera.actor = -1;
+      for (std::size_t a = 0; a < actors.size(); ++a) {
+        if (actors[a].name == name) camera.actor = static_cast<int>(a);
+      }
+      if (camera.actor < 0) value->fail("no actor is called '" + name + "'");
+    } else {
+      camera.actor = static_cast<int>(value->integer(0, static_cast<long long>(actors.size()) - 1));
+    }
+  }
+  if (const auto value = item.find("eye_forward")) camera.eye_forward = value->number();
+  if (const auto value = item.find("eye_up")) camera.eye_up = value->number();
+  if (const auto value = item.find("smoothing")) camera.smoothing_s = value->number_in(0, 1e3);
+  if (const auto value = item.find("path")) camera.path = resolve(*value, base);
+  if (kind == "file" && camera.path.empty()) item.member("path").fail("missing");
+  if (const auto value = item.find("jitter")) camera.jitter_m = value->number_in(0, 1e3);
+  return camera;
+}
+
+}  // namespace
+
+std::string bundled_data_folder() {
+  if (const char* folder = std::getenv("ODYSSEY_DATA_DIR"); folder && *folder) return folder;
+  return ODYSSEY_DATA_DIR;
+}
+
+SceneFile parse_scene(const std::string& json_text, const std::string& path) {
+  const io::JsonDocument document = io::JsonDocument::parse(json_text, path);
+  const JsonValue root = document.root();
+  root.allow_only({"version", "name", "fps", "seconds", "seed", "actors", "props", "cameras", "outputs", "description"});
+  const long long version = root.member("version").integer(1, 1000);
+  if (version != kSceneFileVersion) {
+    root.member("version").fail("version " + std::to_string(version) + " is not one this odyssey reads (it reads " +
+                                std::to_string(kSceneFileVersion) + ")");
+  }
+  const fs::path base = fs::absolute(path).parent_path();
+  SceneFile file;
+  Scene& scene = file.scene;
+  scene.name = name_of(root, fs::path(path).stem().string());
+  if (const auto value = root.find("description")) value->string();
+  if (const auto value = root.find("fps")) scene.fps = value->number_in(1e-3, 1e4);
+  if (const auto value = root.find("seconds")) scene.seconds = value->number_in(0, 1e6);
+  if (const auto value = root.find("seed")) scene.seed = static_cast<std::uint64_t>(value->integer(0, 1LL << 53));
+  const JsonValue actors = root.member("actors");
+  if (actors.size() == 0) actors.fail("a scene needs at least one actor");
+  std::set<std::string> names;
+  for (std::size_t a = 0; a < actors.size(); ++a) {
+    scene.actors.push_back(read_actor(actors[a], a, base));
+    scene.actors.back().retarget.fps = scene.fps;
+    if (actors[a].find("fps")) actors[a].member("fps").fail("actors run at the scene's fps");
+    if (!names.insert(scene.actors.back().name).second) actors[a].member("name").fail("two actors have this name");
+  }
+  if (const auto props = root.find("props")) {
+    for (std::size_t p = 0; p < props->size(); ++p) {
+      scene.props.push_back(read_prop((*props)[p], p, base));
+      if (!names.insert(scene.props.back().name).second) (*props)[p].member("name").fail("an actor or prop has this name");
+    }
+  }
+  if (const auto cameras = root.find("cameras")) {
+    std::set<std::string> camera_names;
+    for (std::size_t c = 0; c < cameras->size(); ++c) {
+      scene.cameras.push_back(read_camera((*cameras)[c], c, scene.actors, base));
+      if (!camera_names.insert(scene.cameras.back().name).second) (*cameras)[c].member("name").fail("two cameras have this name");
+    }
+  }
+  if (const auto outputs = root.find("outputs")) {
+    outputs->allow_only({"trajectories", "camera_paths", "point_caches", "actor_reports", "report", "points_per_actor",
+                         "prop_points", "body_points_only", "compress", "threads"});
+    OutputSelection& which = file.outputs;
+    if (const auto value = outputs->find("trajectories")) which.trajectories = value->boolean();
+    if (const auto value = outputs->find("camera_paths")) which.camera_paths = value->boolean();
+    if (const auto value = outputs->find("point_caches")) which.point_caches = value->boolean();
+    if (const auto value = outputs->find("actor_reports")) which.actor_reports = value->boolean();
+    if (const auto value = outputs->find("report")) which.report = value->boolean();
+    SceneOutputs& out = scene.outputs;
+    if (const auto value = outputs->find("points_per_actor")) out.points_per_actor = static_cast<int>(value->integer(0, 10'000'000));
+    if (const auto value = outputs->find("prop_points")) out.prop_points = static_cast<int>(value->integer(0, 10'000'000));
+    if (const auto value = outputs->find("body_points_only")) out.body_points_only = value->boolean();
+    if (const auto value = outputs->find("compress")) out.compress = value->boolean();
+    if (const auto value = outputs->find("threads")) out.threads = static_cast<int>(value->integer(1, 1024));
+    if (out.prop_points > 0 && scene.props.empty()) outputs->member("prop_points").fail("the scene has no props");
+    if (which.trajectories && scene.cameras.empty()) outputs->member("trajectories").fail("trajectories need a camera");
+  }
+  if (file.outputs.trajectories && scene.cameras.empty()) root.fail("cameras: trajectories need at least one camera");
+  if (file.outputs.trajectories) {
+    long total = scene.outputs.prop_points;
+    for (const SceneActor& actor : scene.actors) total += actor.points.value_or(scene.outputs.points_per_actor);
+    if (total == 0) root.fail("outputs: trajectories asked for, but zero points to track");
+  }
+  return file;
+}
+
+SceneFile read_scene_file(const std::string& path) { return parse_scene(io::read_text_file(path), path); }
+
+std::string example_scene_json() { return io::read_text_file((fs::path(bundled_data_folder()) / "scenes" / "indoor.json").string()); }
+
+void set_outputs_in_folder(Scene& scene, const std::string& folder, const OutputSelection& which) {
+  const fs::path dir(folder);
+  SceneOutputs& out = scene.outputs;
+  out.trajectories.clear();
+  out.camera_paths.clear();
+  out.point_caches.clear();
+  out.actor_reports.clear();
+  for (const SceneCamera& camera : scene.cameras) {
+    if (which.trajectories) out.trajectories.push_back((dir / ("trajectories_" + camera.name + ".npz")).string());
+    if (which.camera_paths) out.camera_paths.push_back((dir / ("camera_" + camera.name + ".json")).string());
+  }
+  for (const SceneActor& actor : scene.actors) {
+    if (which.point_caches) out.point_caches.push_back((dir / ("point_cache_" + actor.name + ".pc2")).string());
+    if (which.actor_reports) out.actor_reports.push_back((dir / ("retarget_" + actor.name + ".json")).string());
+  }
+  out.report = which.report ? (dir / "report.json").string() : std::string();
+}
+
+}  // namespace odyssey::scene
