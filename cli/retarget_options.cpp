@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -170,6 +171,11 @@ scene::RetargetRequest retarget_request_from(const Args& args) {
     throw UsageError("--source-rest expects rest or first-frame, got '" + source_rest + "'");
   }
   if (args.has("bvh-units")) request.bvh_metres_per_unit = bvh_metres_per_unit(args);
+  const bool bvh = std::filesystem::path(request.motion_path).extension() == ".bvh";
+  if (request.model_path && bvh) throw UsageError("--model is for AMASS sequences; " + request.motion_path + " is a BVH file");
+  if (request.bvh_metres_per_unit && !bvh) {
+    throw UsageError("--bvh-units is for BVH files; " + request.motion_path + " is not one");
+  }
   return request;
 }
 

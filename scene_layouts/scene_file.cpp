@@ -295,11 +295,14 @@ SceneFile parse_scene(const std::string& json_text, const std::string& path) {
     if (out.prop_points > 0 && scene.props.empty()) outputs->member("prop_points").fail("the scene has no props");
     if (which.trajectories && scene.cameras.empty()) outputs->member("trajectories").fail("trajectories need a camera");
   }
-  if (file.outputs.trajectories && scene.cameras.empty()) root.fail("cameras: trajectories need at least one camera");
+  // Trajectories are written by default, for every camera there is.
+  if (scene.cameras.empty() && !(root.find("outputs") && root.member("outputs").find("trajectories"))) {
+    file.outputs.trajectories = false;
+  }
   if (file.outputs.trajectories) {
     long total = scene.outputs.prop_points;
     for (const SceneActor& actor : scene.actors) total += actor.points.value_or(scene.outputs.points_per_actor);
-    if (total == 0) root.fail("outputs: trajectories asked for, but zero points to track");
+    if (total == 0) root.member("outputs").fail("trajectories asked for, but zero points to track");
   }
   return file;
 }

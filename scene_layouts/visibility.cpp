@@ -129,7 +129,13 @@ PointVisibility DepthBuffer::classify(const Eigen::Vector3d& point) const {
     const std::size_t t = 3 * std::size_t{candidates[c]};
     const double s =
         ray_parameter(camera_[triangles_[t]], camera_[triangles_[t + 1]], camera_[triangles_[t + 2]], point);
-    if (s > 0 && (1 - s) * distance > reach) return {Reason::occluded, candidates[c]};
+    if (s > 0 && (1 - s) * distance > reach) {
+      // Named by the nearest surface: the one drawn at the point's own pixel when it lies in front
+      // of the point (nearly always the ray's first hit), else the candidate just found.
+      const std::size_t pixel = static_cast<std::size_t>(y) * width_ + x;
+      const bool drawn_in_front = inverse_depth_[pixel] * point.z() > 1 + kRelativeDepthTolerance;
+      return {Reason::occluded, drawn_in_front ? triangle_[pixel] : candidates[c]};
+    }
     for (int e = 0; e < 3; ++e) {
       const std::uint32_t other = neighbours_[t + e];
       if (other != kNoTriangle && meets_box(other)) add(other);

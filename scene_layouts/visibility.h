@@ -150,8 +150,9 @@ class DepthBuffer {
   // "Visibility" above). False before the first render() and after one that threw.
   bool visible(const Eigen::Vector3d& point) const;
   // The same, with the reason: behind_camera for z <= 0, outside_image for a projection outside
-  // the image, a non-finite point or before the first render, occluded with the first candidate
-  // found crossing the ray.
+  // the image, a non-finite point or before the first render, occluded naming the triangle drawn
+  // nearest at the point's pixel when it lies in front of the point (the ray's first hit but for
+  // sub-pixel detail), else the candidate found crossing the ray.
   PointVisibility classify(const Eigen::Vector3d& point) const;
 
  private:

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -274,7 +275,7 @@ TEST(ScenePipelineTest, VisibilityAgreesWithBruteForceRayCastingAcrossActorsAndP
   EXPECT_EQ(std::count(ids.begin(), ids.end(), 1), 1500);
   EXPECT_EQ(std::count_if(ids.begin(), ids.end(), [](std::int64_t id) { return id == -1 || id == -2; }), 1500);
   const Eigen::Vector3d centre = result.cameras[0].poses[0].centre();
-  std::size_t checked = 0, agree = 0, by_actor = 0, by_prop = 0, code_agree = 0, hidden = 0;
+  std::size_t checked = 0, agree = 0, by_actor = 0, by_prop = 0, code_agree = 0, hidden = 0, missed = 0;
   for (int f : {0, 15, 30}) {
     const std::vector<Triangle> triangles = scene_triangles(result, f);
     for (std::size_t i = 0; i < n; i += 3) {
@@ -283,6 +284,7 @@ TEST(ScenePipelineTest, VisibilityAgreesWithBruteForceRayCastingAcrossActorsAndP
       const std::optional<int> hit = first_hit(triangles, centre, point);
       ++checked;
       agree += (visibs[f * n + i] != 0) == !hit;
+      missed += visibs[f * n + i] != 0 && hit;
       if (!hit) continue;
       ++hidden;
       const bool actor = *hit >= 0;
@@ -292,6 +294,9 @@ TEST(ScenePipelineTest, VisibilityAgreesWithBruteForceRayCastingAcrossActorsAndP
     }
   }
   ASSERT_GT(checked, 2000u);
+  std::printf("visibs agree with the brute-force ray cast on %zu of %zu valid points (%zu hidden ones called visible); "
+              "%zu hidden (%zu by actors, %zu by props), codes agree on %zu\n",
+              agree, checked, missed, hidden, by_actor, by_prop, code_agree);
   EXPECT_GE(static_cast<double>(agree) / checked, 0.999) << agree << " of " << checked;
   EXPECT_GT(by_actor, 100u) << "the near actor hides part of the far one";
   EXPECT_GT(by_prop, 50u) << "the crate hides part of the near actor";
