@@ -1,6 +1,10 @@
 // odyssey inspect FILE: what a file is and what it holds, without converting anything.
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "cli/args.h"
@@ -10,7 +14,11 @@
 #include "mocap_io/amass.h"
 #include "mocap_io/body_model_file.h"
 #include "mocap_io/bvh.h"
+#include "mocap_io/gltf_character.h"
 #include "mocap_io/npy.h"
+#include "retarget/bone_map.h"
+#include "retarget/canonical.h"
+#include "retarget/rest_pose.h"
 
 namespace odyssey::cli {
 namespace {
@@ -78,15 +86,119 @@ void inspect_npy(const std::string& path) {
               shape_text(array.shape()).c_str());
 }
 
+bool is_gltf_path(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return extension == ".glb" || extension == ".gltf";
+}
+
+std::string drop_text(const std::optional<double>& drop) {
+  if (!drop) return "not mapped";
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f deg", *drop);
+  return text;
+}
+
+// A character: skins, meshes, joints with parents and the canonical joint each plays, animations,
+// rest height, rest pose kind and the bone map a retarget would use (or why there is none).
+void inspect_character(const std::string& path) {
+  const Character character = io::load_character(path);
+  const io::GltfFileSummary summary = io::summarize_gltf_file(path);
+  const Skeleton& rig = character.skeleton;
+  std::printf("file: %s\nkind: glTF character\n", path.c_str());
+
+  std::printf("skins: %zu\n", summary.skins.size());
+  for (const io::GltfSkinSummary& skin : summary.skins) std::printf("  %-28s %d joints\n", skin.name.c_str(), skin.joint_count);
+
+  std::size_t total_vertices = 0, total_triangles = 0;
+  for (const CharacterMesh& mesh : character.meshes) {
+    total_vertices += mesh.positions.size();
+    total_triangles += mesh.triangles.size() / 3;
+  }
+  std::printf("meshes: %zu (%zu vertices, %zu triangles in all)\n", character.meshes.size(), total_vertices,
+              total_triangles);
+  for (const CharacterMesh& mesh : character.meshes) {
+    std::printf("  %-28s %6zu vertices %6zu triangles  %s\n", mesh.name.c_str(), mesh.positions.size(),
+                mesh.triangles.size() / 3,
+                mesh.skin_joints.size() == 1 ? ("rigid on " + rig.name(mesh.skin_joints[0])).c_str()
+                                             : (std::to_string(mesh.skin_joints.size()) + " skin joints").c_str());
+  }
+
+  const Eigen::AlignedBox3d bounds = character.rest_bounds();
+  std::printf("rest height: %.4f m (z from %.4f to %.4f, %s)\n", bounds.isEmpty() ? 0.0 : bounds.sizes().z(),
+              bounds.isEmpty() ? 0.0 : bounds.min().z(), bounds.isEmpty() ? 0.0 : bounds.max().z(),
+              character.meshes.empty() ? "joints" : "skinned meshes");
+
+  // The map a retarget would use; when the rig is not a humanoid, what detection found anyway
+  // (it still tells the arms apart for the rest pose kind, and what stays unmapped).
+  std::string map_problem;
+  std::optional<retarget::BoneMap> humanoid;
+  try {
+    humanoid = retarget::humanoid_bone_map(rig, path);
+  } catch (const std::exception& error) {
+    map_problem = error.what();
+  }
+  const retarget::BoneMap map = humanoid ? *humanoid : retarget::detect_bone_map(rig);
+
+  std::printf("joints: %d\n", rig.joint_count());
+  for (int j = 0; j < rig.joint_count(); ++j) {
+    const int canonical = map.canonical_of(j);
+    std::printf("  %3d  %-28s parent %-28s %s\n", j, rig.name(j).c_str(),
+                rig.parent(j) < 0 ? "-" : rig.name(rig.parent(j)).c_str(),
+                canonical >= 0 ? std::string(retarget::canonical_name(canonical)).c_str() : "");
+  }
+
+  std::printf("animations: %zu\n", summary.animations.size());
+  for (const io::GltfAnimationSummary& animation : summary.animations) {
+    std::printf("  %-28s %8.4f s (%.4f to %.4f s), %d channels, %zu keyframes\n", animation.name.c_str(),
+                animation.duration(), animation.start, animation.end, animation.channels, animation.keyframes);
+  }
+
+  const retarget::RestPoseInfo rest = retarget::classify_rest_pose(rig, map);
+  if (rest.kind == retarget::RestPoseKind::unknown) {
+    std::printf("rest pose: unknown (%s)\n", rest.reason.c_str());
+  } else if (!humanoid) {
+    std::printf("rest pose: %s-pose, from the arms names matched on a rig that is no humanoid (upper arms %.1f deg "
+                "below horizontal: left %s, right %s)\n",
+                retarget::rest_pose_kind_name(rest.kind), rest.drop_deg, drop_text(rest.left_drop_deg).c_str(),
+                drop_text(rest.right_drop_deg).c_str());
+  } else {
+    std::printf("rest pose: %s-pose (upper arms %.1f deg below horizontal: left %s, right %s)\n",
+                retarget::rest_pose_kind_name(rest.kind), rest.drop_deg, drop_text(rest.left_drop_deg).c_str(),
+                drop_text(rest.right_drop_deg).c_str());
+  }
+
+  if (humanoid) {
+    std::printf("bone map: %s, %d of %d canonical joints mapped (the canonical column above)\n", map.origin.c_str(),
+                map.mapped_count(), retarget::kCanonicalJointCount);
+  } else {
+    std::printf("bone map: none, no humanoid map detected: %s\n", map_problem.c_str());
+    std::printf("  (names alone matched %d canonical joints, the canonical column above)\n", map.mapped_count());
+  }
+  const std::vector<int> unmapped = retarget::unmapped_joints(rig, map);
+  std::printf("unmapped joints: %zu\n", unmapped.size());
+  for (int joint : unmapped) std::printf("  %s\n", rig.name(joint).c_str());
+  if (!character.warnings.empty()) {
+    std::printf("warnings:\n");
+    for (const std::string& warning : character.warnings) std::printf("  %s\n", warning.c_str());
+  }
+}
+
 }  // namespace
 
 int run_inspect(const std::vector<std::string>& arguments) {
-  Args args("inspect", "Summarise a motion, body model or array file: its kind, joints with parents, frames, fps,\n"
-                       "gender, array shapes, and the keys that were skipped.");
-  args.positional("FILE", "a .bvh, AMASS .npz, body model .npz, other .npz, or .npy file");
+  Args args("inspect", "Summarise a motion, body model, array or character file: its kind, joints with parents,\n"
+                       "frames, fps, gender, array shapes, and the keys that were skipped; for a glTF character its\n"
+                       "skins, meshes, animations, rest height, rest pose kind (T or A) and the bone map detected.");
+  args.positional("FILE", "a .bvh, AMASS .npz, body model .npz, other .npz, .npy, or .glb / .gltf character");
   add_bvh_units_option(args);
   if (!args.parse(arguments)) return 0;
   const std::string path = args.get("FILE");
+  if (is_gltf_path(path)) {
+    inspect_character(path);
+    return 0;
+  }
   switch (io::detect_motion_file(path)) {
     case io::MotionFileKind::Bvh: inspect_bvh(path, bvh_metres_per_unit(args)); break;
     case io::MotionFileKind::BodyModel: inspect_body_model(path); break;

@@ -32,7 +32,8 @@ int run_pose(const std::vector<std::string>& arguments) {
       .flag("no-hands", "finger joints keep their rest rotation (hand poses ignored)")
       .flag("no-face", "jaw and eyes keep their rest rotation, expression ignored")
       .flag("no-correctives", "skip the pose-corrective blend shapes")
-      .flag("joints-only", "write joints only, skip the mesh");
+      .flag("joints-only", "write joints only, skip the mesh")
+      .option("threads", "N", "threads evaluating the mesh (default: every core; the output is the same whatever N)");
   add_bvh_units_option(args);
   if (!args.parse(arguments)) return 0;
 
@@ -65,7 +66,13 @@ int run_pose(const std::vector<std::string>& arguments) {
   options.face = !args.get_flag("no-face");
   options.pose_correctives = !args.get_flag("no-correctives");
   const bool joints_only = args.get_flag("joints-only");
-  io::export_body_poses(model, sequence, options, joints_only, out_path);
+  int threads = 0;
+  if (args.has("threads")) {
+    const long long requested = args.get_int("threads");
+    if (requested < 1 || requested > 1024) throw UsageError("--threads must be between 1 and 1024");
+    threads = static_cast<int>(requested);
+  }
+  io::export_body_poses(model, sequence, options, joints_only, out_path, threads);
   std::printf("wrote %s: %d frames at %.6g fps, %d joints", out_path.c_str(), sequence.frame_count(), sequence.fps,
               model.joint_count());
   if (!joints_only) std::printf(", %d vertices", model.vertex_count());

@@ -1,11 +1,15 @@
 #include "mocap_io/body_model_file.h"
 
 #include <Eigen/SparseCore>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <future>
 #include <stdexcept>
 #include <string_view>
+#include <type_traits>
 
 #include "mocap_io/input_error.h"
 #include "mocap_io/npy.h"
@@ -66,6 +70,24 @@ class ModelArchive {
     return values;
   }
 
+  // The values converted into `out` (element_count() of them), refusing NaN and infinities as
+  // finite_doubles does, in one pass over the data for float32 and float64 arrays: these hold the
+  // large dense arrays (shapedirs, posedirs), which are then never walked again.
+  template <class Out>
+  void decode_finite(const std::string& key, const NpyArray& array, Out* out) const {
+    const std::size_t count = array.element_count();
+    bool finite = true;
+    if (array.dtype() == DType::Float32) {
+      finite = convert_finite(reinterpret_cast<const float*>(array.data.data()), count, out);
+    } else if (array.dtype() == DType::Float64) {
+      finite = convert_finite(reinterpret_cast<const double*>(array.data.data()), count, out);
+    } else {
+      const std::vector<double> values = finite_doubles(key, array);
+      std::copy(values.begin(), values.end(), out);
+    }
+    if (!finite) finite_doubles(key, array);  // throws, naming the first bad value's index
+  }
+
   std::vector<std::int64_t> integers(const std::string& key, const NpyArray& array) const {
     if (array.dtype() == DType::Float32 || array.dtype() == DType::Float64 || array.dtype() == DType::Bool) {
       fail(key + ": dtype " + dtype_name(array.dtype()) + ", expected integers");
@@ -75,6 +97,22 @@ class ModelArchive {
 
  private:
   static std::string non_finite_text(double value) { return std::isnan(value) ? "NaN" : "infinite value"; }
+
+  // Converts and tests the exponent bits (all ones: NaN or infinity) without a branch, so the
+  // loop vectorises.
+  template <class In, class Out>
+  static bool convert_finite(const In* in, std::size_t count, Out* out) {
+    using Bits = std::conditional_t<sizeof(In) == 4, std::uint32_t, std::uint64_t>;
+    constexpr Bits kExponent = sizeof(In) == 4 ? Bits(0x7f800000u) : Bits(0x7ff0000000000000ull);
+    Bits non_finite = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      Bits bits;
+      std::memcpy(&bits, in + i, sizeof bits);
+      non_finite |= Bits((bits & kExponent) == kExponent);
+      out[i] = static_cast<Out>(in[i]);
+    }
+    return non_finite == 0;
+  }
 
   // The C-order multi-index of flat element i, as numpy prints it: [12, 1].
   static std::string index_text(const NpyArray& array, std::size_t flat) {
@@ -188,15 +226,32 @@ BodyModel read_body_model(const std::string& path) {
   const NpyArray weights = archive.load("weights", {vertices, joints});
   model.weights = sparse_from_dense(vertices, joints, archive.finite_doubles("weights", weights));
 
-  // shapedirs (V, 3, S) is row-major 3V x S with row 3v+c, the layout BodyModel keeps.
-  const NpyArray shapedirs = archive.load_any_shape("shapedirs");
-  if (shapedirs.shape().size() != 3 || shapedirs.shape()[0] != vertices || shapedirs.shape()[1] != 3) {
-    archive.fail("shapedirs: shape " + shape_text(shapedirs.shape()) + ", expected (" + std::to_string(vertices) +
-                 ", 3, S)");
+  // shapedirs (V, 3, S) is row-major 3V x S with row 3v+c, the layout BodyModel keeps. It and
+  // posedirs are nearly all of the file (the dense SMPL-X: 50 and 61 MB as float32), so
+  // shapedirs is read, inflated and decoded on a second thread while this one does the rest.
+  std::future<RowMatrixXd> shapedirs_future = std::async(std::launch::async, [&archive, vertices] {
+    const NpyArray shapedirs = archive.load_any_shape("shapedirs");
+    if (shapedirs.shape().size() != 3 || shapedirs.shape()[0] != vertices || shapedirs.shape()[1] != 3) {
+      archive.fail("shapedirs: shape " + shape_text(shapedirs.shape()) + ", expected (" + std::to_string(vertices) +
+                   ", 3, S)");
+    }
+    RowMatrixXd values(Eigen::Index(3 * vertices), Eigen::Index(shapedirs.shape()[2]));
+    advise_huge_pages(values.data(), std::size_t(values.size()) * sizeof(double));
+    archive.decode_finite("shapedirs", shapedirs, values.data());
+    return values;
+  });
+
+  // posedirs (V, 3, 9(J-1)) is row-major 3V x 9(J-1), kept in float32 as stored.
+  const std::size_t pose_features = 9 * (joints - 1);
+  {
+    const NpyArray posedirs = archive.load("posedirs", {vertices, 3, pose_features});
+    model.posedirs.resize(Eigen::Index(3 * vertices), Eigen::Index(pose_features));
+    advise_huge_pages(model.posedirs.data(), std::size_t(model.posedirs.size()) * sizeof(float));
+    archive.decode_finite("posedirs", posedirs, model.posedirs.data());
   }
-  const std::size_t directions = shapedirs.shape()[2];
-  model.shapedirs = Eigen::Map<const RowMatrixXd>(archive.finite_doubles("shapedirs", shapedirs).data(),
-                                                  Eigen::Index(3 * vertices), Eigen::Index(directions));
+
+  model.shapedirs = shapedirs_future.get();
+  const std::size_t directions = std::size_t(model.shapedirs.cols());
   if (model.kind == BodyModelKind::SMPLX) {
     if (directions >= 400) {
       model.shape_count = 300;
@@ -211,11 +266,6 @@ BodyModel read_body_model(const std::string& path) {
     model.shape_count = int(directions);
   }
 
-  // posedirs (V, 3, 9(J-1)) is row-major 3V x 9(J-1), kept in float32 as stored.
-  const std::size_t pose_features = 9 * (joints - 1);
-  const NpyArray posedirs = archive.load("posedirs", {vertices, 3, pose_features});
-  model.posedirs = Eigen::Map<const RowMatrixXf>(archive.finite_floats("posedirs", posedirs).data(),
-                                                 Eigen::Index(3 * vertices), Eigen::Index(pose_features));
 
   if (model.kind != BodyModelKind::SMPL) {
     const auto components = [&](const std::string& key) {
@@ -232,9 +282,10 @@ BodyModel read_body_model(const std::string& path) {
     model.hands_mean_right = mean("hands_meanr");
   }
 
-  // What the file layout cannot show on its own (weights summing to 1, for one).
+  // What the file layout cannot show on its own (weights summing to 1, for one). Every value
+  // was checked finite as it was decoded, so the dense arrays are not walked again.
   try {
-    model.validate();
+    model.validate_layout();
   } catch (const std::invalid_argument& error) {
     archive.fail(error.what());
   }

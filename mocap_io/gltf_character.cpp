@@ -311,6 +311,46 @@ class CharacterReader {
     return character;
   }
 
+  // Skins and animations, for summarize_gltf_file().
+  GltfFileSummary summarize() {
+    check_required_extensions();
+    GltfFileSummary summary;
+    for (std::size_t k = 0; k < model_.skins.size(); ++k) {
+      const tinygltf::Skin& skin = model_.skins[k];
+      for (int joint : skin.joints) check_index(joint, model_.nodes.size(), "skin " + std::to_string(k), "node");
+      summary.skins.push_back({skin.name.empty() ? "skin_" + std::to_string(k) : skin.name, int(skin.joints.size())});
+    }
+    for (std::size_t a = 0; a < model_.animations.size(); ++a) {
+      const tinygltf::Animation& animation = model_.animations[a];
+      GltfAnimationSummary out;
+      out.name = animation.name.empty() ? "animation_" + std::to_string(a) : animation.name;
+      out.channels = int(animation.channels.size());
+      out.samplers = int(animation.samplers.size());
+      const std::string label = "animation " + std::to_string(a) + " '" + out.name + "'";
+      for (std::size_t c = 0; c < animation.channels.size(); ++c) {
+        const tinygltf::AnimationChannel& channel = animation.channels[c];
+        const std::string what = label + " channel " + std::to_string(c);
+        check_index(channel.sampler, animation.samplers.size(), what, "sampler");
+        if (channel.target_node >= 0) check_index(channel.target_node, model_.nodes.size(), what, "node");
+      }
+      bool any = false;
+      for (std::size_t k = 0; k < animation.samplers.size(); ++k) {
+        const std::string what = label + " sampler " + std::to_string(k) + " input";
+        const Elements times = read_accessor(animation.samplers[k].input, what, TINYGLTF_TYPE_SCALAR,
+                                             {TINYGLTF_COMPONENT_TYPE_FLOAT});
+        out.keyframes = std::max(out.keyframes, times.count);
+        for (double t : times.values) {
+          if (!std::isfinite(t)) fail(what + " holds a non-finite time");
+          out.start = any ? std::min(out.start, t) : t;
+          out.end = any ? std::max(out.end, t) : t;
+          any = true;
+        }
+      }
+      summary.animations.push_back(std::move(out));
+    }
+    return summary;
+  }
+
  private:
   [[noreturn]] void fail(const std::string& problem) const { throw InputError(path_, problem); }
 
@@ -1022,6 +1062,17 @@ Character load_character(const std::string& path) {
     if (!buffer.uri.empty() && buffer.uri.rfind("data:", 0) != 0) input_bytes += buffer.data.size();
   }
   return CharacterReader(path, std::move(model), std::move(warnings), gltf_decode_budget(input_bytes)).read();
+}
+
+GltfFileSummary summarize_gltf_file(const std::string& path) {
+  std::vector<std::string> warnings;
+  const std::vector<unsigned char> bytes = read_whole_file(path);
+  tinygltf::Model model = parse_gltf(path, bytes, warnings);
+  std::uint64_t input_bytes = bytes.size();
+  for (const tinygltf::Buffer& buffer : model.buffers) {
+    if (!buffer.uri.empty() && buffer.uri.rfind("data:", 0) != 0) input_bytes += buffer.data.size();
+  }
+  return CharacterReader(path, std::move(model), std::move(warnings), gltf_decode_budget(input_bytes)).summarize();
 }
 
 }  // namespace odyssey::io

@@ -78,6 +78,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "skeleton/character.h"
 
@@ -102,5 +103,30 @@ std::uint64_t gltf_decode_budget(std::uint64_t input_bytes);
 // Loads a .gltf or .glb (told apart by the GLB magic bytes, not by the extension). Character.name
 // is the file's stem. Throws InputError naming the file for anything it cannot read exactly.
 Character load_character(const std::string& path);
+
+// What a glTF file holds besides the character load_character() builds: its skins and its
+// animations, as `odyssey inspect` lists them.
+struct GltfSkinSummary {
+  std::string name;  // the skin's name, else "skin_<index>"
+  int joint_count = 0;
+};
+struct GltfAnimationSummary {
+  std::string name;  // the animation's name, else "animation_<index>"
+  int channels = 0;
+  int samplers = 0;
+  std::size_t keyframes = 0;  // the most keyframes (input times) of any of its samplers
+  double start = 0.0;         // seconds: the earliest and latest input time of all its samplers
+  double end = 0.0;
+  double duration() const { return end - start; }
+};
+struct GltfFileSummary {
+  std::vector<GltfSkinSummary> skins;
+  std::vector<GltfAnimationSummary> animations;
+};
+
+// Reads the skins and animations of a .gltf or .glb with the same checks as load_character (the
+// container, the JSON depth, every index; each sampler's input times decoded as float scalars,
+// within the same decoding budget, finite). Throws InputError naming the file.
+GltfFileSummary summarize_gltf_file(const std::string& path);
 
 }  // namespace odyssey::io

@@ -58,9 +58,23 @@ struct BodyModel {
   int vertex_count() const { return static_cast<int>(v_template.rows()); }
   int joint_count() const { return static_cast<int>(parents.size()); }
   int pose_size() const { return 3 * joint_count(); }
-  // Throws std::invalid_argument on inconsistent shapes or non-finite values.
+  // Throws std::invalid_argument on inconsistent shapes or non-finite values: validate_layout()
+  // and every shapedirs and posedirs value finite.
   void validate() const;
+  // Everything validate() checks except that the dense shapedirs and posedirs values are finite
+  // (nearly all of the model's bytes): joint count, names, parents, every array's shape, faces in
+  // range, v_template, J_regressor and weights finite, weights summing to 1. O(V + non-zeros).
+  // BodyModelEvaluator runs this, not validate(): load_body_model checks every value as it
+  // decodes it, so a loaded model is walked once; a model built or edited in code should pass
+  // validate() once before it is evaluated.
+  void validate_layout() const;
 };
+
+// Asks the kernel to back the whole pages inside [data, data + bytes) with transparent huge pages
+// (madvise MADV_HUGEPAGE; a no-op where that is unavailable). Call it on a large buffer before
+// its first write: the dense model's arrays and the per-batch buffers are hundreds of MB, and
+// on virtual machines faulting them in 4 KiB at a time cost more than decoding them.
+void advise_huge_pages(void* data, std::size_t bytes);
 
 // First joint of each part in the SMPL-X (and SMPL-H) joint order.
 struct BodyParts {
@@ -94,7 +108,8 @@ struct BodyModelOptions {
 // of the float32 model values to about 1e-8 m.
 class BodyModelEvaluator {
  public:
-  // Validates the model (std::invalid_argument) and sets the shape to the mean (all betas 0).
+  // Checks the model's layout (model.validate_layout(), std::invalid_argument) and sets the
+  // shape to the mean (all betas 0).
   BodyModelEvaluator(const BodyModel& model, BodyModelOptions options = {});
   ~BodyModelEvaluator();
   BodyModelEvaluator(BodyModelEvaluator&&) noexcept;
