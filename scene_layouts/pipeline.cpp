@@ -15,8 +15,10 @@
 #include "mocap_io/input_error.h"
 #include "mocap_io/obj_mesh.h"
 #include "mocap_io/output_file.h"
+#include "mocap_io/scene_glb.h"
 #include "retarget/canonical.h"
 #include "scene_layouts/camera_rigs.h"
+#include "scene_layouts/preview.h"
 
 namespace odyssey::scene {
 namespace {
@@ -91,6 +93,7 @@ void validate_scene(const Scene& scene) {
     require(paths.empty() || paths.size() == count, std::string("scene outputs: ") + what + " needs one path per " + of);
   };
   per(out.trajectories, scene.cameras.size(), "trajectories", "camera");
+  per(out.previews, scene.cameras.size(), "previews", "camera");
   per(out.camera_paths, scene.cameras.size(), "camera_paths", "camera");
   per(out.point_caches, scene.actors.size(), "point_caches", "actor");
   per(out.actor_reports, scene.actors.size(), "actor_reports", "actor");
@@ -409,7 +412,8 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress) {
   result.fps = scene.fps;
   result.seed = scene.seed;
   const SceneOutputs& outputs = scene.outputs;
-  const bool tracking = any_path(outputs.trajectories);
+  // Points are tracked when some camera writes trajectories or a contact sheet.
+  const bool tracking = any_path(outputs.trajectories) || any_path(outputs.previews);
 
   // Retarget each distinct request once.
   auto start = Clock::now();
@@ -538,7 +542,7 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress) {
     stream_props.points = skinning::sample_surface_points(stream_props.character, options);
   }
   if (!tracking) {
-    result.skipped.push_back("tracked points, visibility and occluder rasterising: no trajectories asked for");
+    result.skipped.push_back("tracked points, visibility and occluder rasterising: no trajectories or previews asked for");
   }
 
   // Sinks, each writing under a staged name.
@@ -551,9 +555,14 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress) {
     stream_cameras[c].name = scene.cameras[c].name;
     stream_cameras[c].path = &result.cameras[c];
     stream_cameras[c].own_actor = scene.cameras[c].kind == SceneCamera::Kind::ego ? scene.cameras[c].actor : -1;
-    stream_cameras[c].tracks = tracking && !outputs.trajectories[c].empty();
+    stream_cameras[c].preview = !outputs.previews.empty() && !outputs.previews[c].empty();
+    stream_cameras[c].tracks = (!outputs.trajectories.empty() && !outputs.trajectories[c].empty()) || stream_cameras[c].preview;
+    if (stream_cameras[c].preview) {
+      sinks.push_back(std::make_unique<ContactSheetSink>(static_cast<int>(c), staged.stage(outputs.previews[c])));
+      result.outputs.push_back(outputs.previews[c]);
+    }
   }
-  if (tracking) {
+  if (any_path(outputs.trajectories)) {
     const io::TrajectoryFileHeader header =
         trajectory_file_header(stream_actors, scene.props.empty() ? nullptr : &stream_props, frames, scene.fps);
     if (header.points == 0) throw std::invalid_argument("scene: trajectories asked for, but no points to track");
@@ -622,6 +631,15 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress) {
     io::write_animated_glb(actor.request.character_path, actor.character, result.actors[0].clip, staged.stage(outputs.glb),
                            options);
     result.outputs.push_back(outputs.glb);
+  }
+  if (!outputs.scene_glb.empty()) {
+    std::vector<io::SceneGlbActor> glb_actors;
+    for (const PlacedActor& actor : result.actors) glb_actors.push_back({actor.name, &actor.retargeted->character, &actor.clip});
+    std::vector<io::SceneGlbCamera> glb_cameras;
+    for (std::size_t c = 0; c < result.cameras.size(); ++c) glb_cameras.push_back({result.camera_names[c], &result.cameras[c]});
+    io::write_scene_glb(staged.stage(outputs.scene_glb), glb_actors, scene.props.empty() ? nullptr : &result.props, glb_cameras,
+                        result.fps);
+    result.outputs.push_back(outputs.scene_glb);
   }
   if (!outputs.report.empty()) result.outputs.push_back(outputs.report);
   for (const std::string& path : outputs.actor_reports) {

@@ -90,9 +90,11 @@ struct SceneCamera {
 // (trajectories, camera paths) or per actor (point caches, with the rest OBJ beside each).
 struct SceneOutputs {
   std::vector<std::string> trajectories, camera_paths, point_caches;
+  std::vector<std::string> previews;       // per camera: a PNG contact sheet (preview.h)
   std::vector<std::string> rest_objs;      // per actor with a point cache; empty: the cache's path with .obj
   std::vector<std::string> actor_reports;  // per actor: its retargeting report (JSON)
   std::string glb;     // the retargeted actor, with the first camera, as an animated GLB: one actor, no props
+  std::string scene_glb;  // the whole scene as one GLB: every actor, prop and camera (mocap_io/scene_glb.h)
   std::string report;  // the scene's report (JSON)
   int points_per_actor = 5000;
   int prop_points = 0;  // tracked points on the props, shared by area
@@ -118,6 +120,8 @@ struct Scene {
 // (and "DIR/retarget_<actor>.json")
 struct OutputSelection {
   bool trajectories = true, camera_paths = true, point_caches = false, actor_reports = false, report = true;
+  bool previews = false;  // DIR/preview_<camera>.png
+  bool glb = false;       // DIR/scene.glb
 };
 void set_outputs_in_folder(Scene& scene, const std::string& folder, const OutputSelection& which);
 

@@ -278,7 +278,7 @@ SceneFile parse_scene(const std::string& json_text, const std::string& path) {
     }
   }
   if (const auto outputs = root.find("outputs")) {
-    outputs->allow_only({"trajectories", "camera_paths", "point_caches", "actor_reports", "report", "points_per_actor",
+    outputs->allow_only({"trajectories", "camera_paths", "point_caches", "actor_reports", "report", "previews", "glb", "points_per_actor",
                          "prop_points", "body_points_only", "compress", "threads"});
     OutputSelection& which = file.outputs;
     if (const auto value = outputs->find("trajectories")) which.trajectories = value->boolean();
@@ -286,6 +286,9 @@ SceneFile parse_scene(const std::string& json_text, const std::string& path) {
     if (const auto value = outputs->find("point_caches")) which.point_caches = value->boolean();
     if (const auto value = outputs->find("actor_reports")) which.actor_reports = value->boolean();
     if (const auto value = outputs->find("report")) which.report = value->boolean();
+    if (const auto value = outputs->find("previews")) which.previews = value->boolean();
+    if (const auto value = outputs->find("glb")) which.glb = value->boolean();
+    if (which.previews && scene.cameras.empty()) outputs->member("previews").fail("previews need a camera");
     SceneOutputs& out = scene.outputs;
     if (const auto value = outputs->find("points_per_actor")) out.points_per_actor = static_cast<int>(value->integer(0, 10'000'000));
     if (const auto value = outputs->find("prop_points")) out.prop_points = static_cast<int>(value->integer(0, 10'000'000));
@@ -316,17 +319,20 @@ void set_outputs_in_folder(Scene& scene, const std::string& folder, const Output
   SceneOutputs& out = scene.outputs;
   out.trajectories.clear();
   out.camera_paths.clear();
+  out.previews.clear();
   out.point_caches.clear();
   out.actor_reports.clear();
   for (const SceneCamera& camera : scene.cameras) {
     if (which.trajectories) out.trajectories.push_back((dir / ("trajectories_" + camera.name + ".npz")).string());
     if (which.camera_paths) out.camera_paths.push_back((dir / ("camera_" + camera.name + ".json")).string());
+    if (which.previews) out.previews.push_back((dir / ("preview_" + camera.name + ".png")).string());
   }
   for (const SceneActor& actor : scene.actors) {
     if (which.point_caches) out.point_caches.push_back((dir / ("point_cache_" + actor.name + ".pc2")).string());
     if (which.actor_reports) out.actor_reports.push_back((dir / ("retarget_" + actor.name + ".json")).string());
   }
   out.report = which.report ? (dir / "report.json").string() : std::string();
+  out.scene_glb = which.glb ? (dir / "scene.glb").string() : std::string();
 }
 
 }  // namespace odyssey::scene

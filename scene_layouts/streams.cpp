@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "scene_layouts/preview.h"
 #include "scene_layouts/visibility.h"
 #include "skinning/lbs.h"
 #include "skinning/worker_pool.h"
@@ -243,7 +244,14 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
     std::vector<float> trajs_2d;
     std::vector<std::uint8_t> valids, visibs, visibility_codes;
     std::vector<float> intrinsics, extrinsics;
+    std::vector<PreviewFrame> previews;
+    // Trails for the contact sheet: the uv of every kTrailStride-th point over the last
+    // kTrailFrames frames, a ring; NaN where the point was not valid.
+    std::vector<std::vector<float>> trail;
+    std::size_t trail_next = 0;
+    std::vector<int> preview_frames;
   };
+  constexpr std::size_t kTrailFrames = 15, kTrailStride = 8;
   std::vector<CameraFrames> camera_frames(cameras.size());
   for (std::size_t c = 0; c < cameras.size(); ++c) {
     if (!cameras[c].tracks) continue;
@@ -254,6 +262,10 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
     out.visibility_codes.resize(chunk * n);
     out.intrinsics.resize(chunk * 9);
     out.extrinsics.resize(chunk * 16);
+    if (cameras[c].preview) {
+      out.preview_frames = preview_frames(frames);
+      out.trail.assign(kTrailFrames, std::vector<float>(2 * ((n + kTrailStride - 1) / kTrailStride), NAN));
+    }
   }
   std::vector<std::optional<DepthBuffer>> depth(cameras.size());
   // Per camera: the occluders drawn last frame (which actors), to rebuild the triangle list only
@@ -441,6 +453,28 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
         for (const auto& counts : block_counts) {
           for (int k5 = 0; k5 < 5; ++k5) code_counts[c][k5] += counts[k5];
         }
+        if (camera.preview) {
+          std::vector<float>& trail = out.trail[out.trail_next];
+          for (std::size_t i = 0; i < n; i += kTrailStride) {
+            trail[2 * (i / kTrailStride)] = valid[i] ? uv[2 * i] : NAN;
+            trail[2 * (i / kTrailStride) + 1] = valid[i] ? uv[2 * i + 1] : NAN;
+          }
+          out.trail_next = (out.trail_next + 1) % kTrailFrames;
+          if (std::binary_search(out.preview_frames.begin(), out.preview_frames.end(), static_cast<int>(frame))) {
+            PreviewFrame image = draw_preview(
+                buffer,
+                [&](std::uint32_t t) {
+                  const auto owner = std::upper_bound(ranges.begin(), ranges.end(), t,
+                                                      [](std::uint32_t id, const auto& range) { return id < range.first; });
+                  return owner != ranges.end() ? owner->second : -1;
+                },
+                static_cast<int>(frame));
+            std::vector<std::vector<float>> oldest_first;
+            for (std::size_t k2 = 0; k2 < kTrailFrames; ++k2) oldest_first.push_back(out.trail[(out.trail_next + k2) % kTrailFrames]);
+            draw_points(image, std::span(uv, n * 2), std::span(code, n), oldest_first);
+            out.previews.push_back(std::move(image));
+          }
+        }
         const Eigen::Matrix3d kk = k.matrix();
         const Eigen::Matrix4d e = pose.extrinsics();
         for (int r = 0; r < 3; ++r) {
@@ -459,7 +493,8 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
       const CameraFrames& full = camera_frames[c];
       cut[c] = CameraChunk{std::span(full.trajs_2d).first(count * n * 2), std::span(full.valids).first(count * n),
                            std::span(full.visibs).first(count * n), std::span(full.visibility_codes).first(count * n),
-                           std::span(full.intrinsics).first(count * 9), std::span(full.extrinsics).first(count * 16)};
+                           std::span(full.intrinsics).first(count * 9), std::span(full.extrinsics).first(count * 16),
+                           full.previews};
     }
     std::vector<std::span<const float>> actor_vertices(actors.size());
     for (std::size_t a = 0; a < actors.size(); ++a) {
@@ -472,6 +507,7 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
     view.actor_vertices = actor_vertices;
     view.cameras = cut;
     for (StreamSink* sink : sinks) sink->write(view);
+    for (CameraFrames& out : camera_frames) out.previews.clear();
   }
   for (StreamSink* sink : sinks) sink->finish();
 

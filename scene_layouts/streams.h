@@ -70,6 +70,7 @@ struct StreamCamera {
   const CameraPath* path = nullptr;
   int own_actor = -1;  // ego: the actor it rides on
   bool tracks = true;  // project and classify the points (a trajectory sink listens)
+  bool preview = false;  // draw contact-sheet tiles (preview.h); needs tracks
 };
 
 struct StreamOptions {
@@ -78,12 +79,20 @@ struct StreamOptions {
   bool reject_camera_inside = true;
 };
 
+// A contact-sheet tile (preview.h): one frame as the camera's depth buffer saw it, RGB.
+struct PreviewFrame {
+  int frame = 0;
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> rgb;  // width x height x 3, rows from the top
+};
+
 // One camera's share of a chunk, frame after frame.
 struct CameraChunk {
   std::span<const float> trajs_2d;                     // C x N x 2
   std::span<const std::uint8_t> valids, visibs;        // C x N
   std::span<const std::uint8_t> visibility_codes;      // C x N (io::kVisible ...)
   std::span<const float> intrinsics, extrinsics;       // C x 9, C x 16, row-major
+  std::span<const PreviewFrame> previews;              // the chunk's contact-sheet tiles (preview camera)
 };
 
 // What the sinks see of a chunk. Points are numbered actor after actor in the scene's order, then

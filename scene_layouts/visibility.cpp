@@ -65,6 +65,23 @@ float DepthBuffer::depth(int x, int y) const {
   return 1.0f / inverse_depth_[static_cast<std::size_t>(y) * width_ + x];
 }
 
+std::uint32_t DepthBuffer::triangle_at(int x, int y) const {
+  if (x < 0 || x >= width_ || y < 0 || y >= height_) return kNoTriangle;
+  const std::size_t pixel = static_cast<std::size_t>(y) * width_ + x;
+  return inverse_depth_[pixel] > 0 ? triangle_[pixel] : kNoTriangle;
+}
+
+double DepthBuffer::facing(std::uint32_t triangle) const {
+  if (std::size_t{triangle} * 3 + 2 >= triangles_.size()) return 0;
+  const Eigen::Vector3d& a = camera_[triangles_[3 * std::size_t{triangle}]];
+  const Eigen::Vector3d& b = camera_[triangles_[3 * std::size_t{triangle} + 1]];
+  const Eigen::Vector3d& c = camera_[triangles_[3 * std::size_t{triangle} + 2]];
+  const Eigen::Vector3d normal = (b - a).cross(c - a);
+  const Eigen::Vector3d view = (a + b + c) / 3;
+  const double scale = normal.norm() * view.norm();
+  return scale > 0 ? std::abs(normal.dot(view)) / scale : 0;
+}
+
 bool DepthBuffer::visible(const Eigen::Vector3d& point) const { return classify(point).visible(); }
 
 PointVisibility DepthBuffer::classify(const Eigen::Vector3d& point) const {
@@ -84,9 +101,21 @@ PointVisibility DepthBuffer::classify(const Eigen::Vector3d& point) const {
   const int x = static_cast<int>(u), y = static_cast<int>(v);
   std::array<std::uint32_t, kMaxCandidates> candidates;
   int count = 0;
+  // Candidates seen so far, as a set: open addressing in twice as many slots as candidates, so a
+  // lookup is a probe or two (a linear search made the flood quadratic in the candidates).
+  constexpr std::uint32_t kSlots = 2 * kMaxCandidates;
+  static_assert((kSlots & (kSlots - 1)) == 0, "the slot count is a power of two");
+  std::array<std::uint32_t, kSlots> seen;
+  seen.fill(kNoTriangle);
   auto add = [&](std::uint32_t id) {
-    const auto end = candidates.begin() + count;
-    if (count < kMaxCandidates && std::find(candidates.begin(), end, id) == end) candidates[count++] = id;
+    if (count >= kMaxCandidates) return;
+    std::uint32_t slot = (id * 2654435761u) & (kSlots - 1);
+    while (seen[slot] != kNoTriangle) {
+      if (seen[slot] == id) return;
+      slot = (slot + 1) & (kSlots - 1);
+    }
+    seen[slot] = id;
+    candidates[count++] = id;
   };
   for (int j = std::max(y - 1, 0); j <= std::min(y + 1, height_ - 1); ++j) {
     for (int i = std::max(x - 1, 0); i <= std::min(x + 1, width_ - 1); ++i) {

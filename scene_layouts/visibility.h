@@ -143,6 +143,12 @@ class DepthBuffer {
   // The nearest camera depth at pixel (x, y), +infinity where nothing was drawn. Throws
   // std::out_of_range outside the image.
   float depth(int x, int y) const;
+  // The triangle (index in the last render's list) drawn nearest at pixel (x, y), or 0xffffffff
+  // where nothing was drawn or outside the image.
+  std::uint32_t triangle_at(int x, int y) const;
+  // |cos| of the angle between a triangle of the last render and the ray to its centre (1: seen
+  // face on, 0: edge on or degenerate), for flat shading.
+  double facing(std::uint32_t triangle) const;
 
   // Whether a surface point, in camera coordinates (pose.to_camera(world) for the pose of the last
   // render()), is visible: in front of the camera (z > 0), projecting into [0, width) x [0, height)

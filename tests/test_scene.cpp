@@ -2,6 +2,7 @@
 // cameras inside geometry, visibility against every actor and prop checked by brute-force ray
 // casting, reproducibility, work skipped, and the example scenes end to end through the CLI.
 #include <gtest/gtest.h>
+#include <png.h>
 
 #include <cmath>
 #include <cstdio>
@@ -338,6 +339,43 @@ TEST(ScenePipelineTest, ActorsNoCameraSeesAreNotSkinned) {
 
 // The example prints, runs as printed from another folder, and its head camera sees the person in
 // front: most of the leader's points are valid in most frames. Run twice, byte-identical files.
+// A contact sheet: six half-size tiles, the actor drawn in its colour where the camera sees it,
+// green dots on its visible points, read back with libpng.
+TEST(ScenePipelineTest, ContactSheetShowsTheActorAndItsVisiblePoints) {
+  scene::Scene shot;
+  shot.actors = {walker("solo", kFigure, 0, 0, 0)};
+  shot.seconds = 1;
+  scene::SceneCamera camera;
+  camera.name = "front";
+  camera.position = Eigen::Vector3d(0.6, -3.5, 1.0);
+  camera.target = Eigen::Vector3d(0.6, 0, 0.8);
+  shot.cameras = {camera};
+  shot.outputs.points_per_actor = 500;
+  const fs::path dir = test_support::scratch_dir("scene");
+  shot.outputs.previews = {(dir / "front.png").string()};
+  const scene::SceneResult result = scene::run_scene(shot);
+  EXPECT_EQ(result.outputs, std::vector<std::string>{(dir / "front.png").string()});
+
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  ASSERT_TRUE(png_image_begin_read_from_file(&image, (dir / "front.png").c_str())) << image.message;
+  image.format = PNG_FORMAT_RGB;
+  std::vector<std::uint8_t> rgb(PNG_IMAGE_SIZE(image));
+  ASSERT_TRUE(png_image_finish_read(&image, nullptr, rgb.data(), 0, nullptr)) << image.message;
+  EXPECT_EQ(image.width, 3u * 480 + 2 * 4);
+  EXPECT_EQ(image.height, 2u * 270 + 4);
+  std::size_t actor = 0, green = 0, background = 0;
+  for (std::size_t p = 0; p < rgb.size(); p += 3) {
+    const int r = rgb[p], g = rgb[p + 1], b = rgb[p + 2];
+    actor += b > r + 30 && b > g + 10;            // the first actor's blue, shaded
+    green += g > 150 && r < 140 && b < 140;       // visible points
+    background += r == 40 && g == 40 && b == 46;  // nothing drawn
+  }
+  EXPECT_GT(actor, 2000u);
+  EXPECT_GT(green, 200u);
+  EXPECT_GT(background, rgb.size() / 3 / 2) << "most of each tile is empty floorless space";
+}
+
 TEST(SceneCliTest, TheExampleRunsFromAnyFolderAndTheHeadCameraSeesTheOtherPerson) {
   const fs::path dir = test_support::scratch_dir("scene_cli");
   const test_support::CliResult example = test_support::run_cli("scene --example");

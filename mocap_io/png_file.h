@@ -1,0 +1,15 @@
+// PNG images through libpng: 8-bit RGB, rows top to bottom.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+
+namespace odyssey::io {
+
+// Writes `rgb` (width x height x 3 bytes, row-major from the top) to `path` under a temporary name
+// renamed into place when complete. Throws std::invalid_argument for a wrong size, InputError
+// naming the path when libpng or the file fails.
+void write_png_rgb(const std::string& path, int width, int height, std::span<const std::uint8_t> rgb);
+
+}  // namespace odyssey::io
