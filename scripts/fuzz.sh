@@ -13,6 +13,7 @@
 #   ODYSSEY_FUZZ_HARNESSES  space-separated subset to run (default: all ten)
 #   ODYSSEY_FUZZ_BUILD_JOBS parallel compile jobs (default: nproc)
 #   ODYSSEY_SHARED_DIR      the shared folder (default: ../shared beside the checkout)
+#   ODYSSEY_FUZZ_NO_BUILD=1 run the harnesses already in build-fuzz/ (no configure, no build)
 #
 # The corpora live in build-fuzz/fuzz-corpus/<harness> and grow from run to run; the shared
 # folder is only ever read. Reproduce a finding with build-fuzz/fuzz/fuzz_<harness> FILE.
@@ -33,11 +34,13 @@ if ! command -v clang++-14 >/dev/null 2>&1 || ! dpkg -s libclang-rt-14-dev >/dev
   DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y -qq --no-install-recommends clang-14 libclang-rt-14-dev >/dev/null
 fi
 
-CC=clang-14 CXX=clang++-14 cmake -S "$root" -B "$build" -DODYSSEY_FUZZ=ON -DODYSSEY_BUILD_TESTS=OFF \
-  -DODYSSEY_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >"$build.configure.log" 2>&1 ||
-  { cat "$build.configure.log"; exit 1; }
-targets=(fuzz_make_seeds "${harnesses[@]/#/fuzz_}")
-cmake --build "$build" --target "${targets[@]}" -j "${ODYSSEY_FUZZ_BUILD_JOBS:-$(nproc)}"
+if [ "${ODYSSEY_FUZZ_NO_BUILD:-0}" != 1 ]; then
+  CC=clang-14 CXX=clang++-14 cmake -S "$root" -B "$build" -DODYSSEY_FUZZ=ON -DODYSSEY_BUILD_TESTS=OFF \
+    -DODYSSEY_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >"$build.configure.log" 2>&1 ||
+    { cat "$build.configure.log"; exit 1; }
+  targets=(fuzz_make_seeds "${harnesses[@]/#/fuzz_}")
+  cmake --build "$build" --target "${targets[@]}" -j "${ODYSSEY_FUZZ_BUILD_JOBS:-$(nproc)}"
+fi
 
 # Seeds: copied (never linked) into the scratch corpora, so nothing under $shared is written.
 generated="$build/fuzz-seeds"
