@@ -64,6 +64,9 @@ void validate_scene(const Scene& scene) {
     require(names.insert("actor " + actor.name).second, "scene: two actors are called '" + actor.name + "'");
     require(actor.speed > 0 && std::isfinite(actor.speed), who + "speed must be positive");
     require(std::isfinite(actor.start_s), who + "start must be finite");
+    require(!actor.start_range || (std::isfinite(actor.start_range->first) && std::isfinite(actor.start_range->second) &&
+                                   actor.start_range->first <= actor.start_range->second),
+            who + "a start range must be finite with min <= max");
     require(actor.trim_start_s >= 0 && std::isfinite(actor.trim_start_s), who + "trim start must be 0 or more");
     require(!actor.trim_end_s || (*actor.trim_end_s > actor.trim_start_s && std::isfinite(*actor.trim_end_s)),
             who + "trim end must come after trim start");
@@ -132,13 +135,13 @@ int root_joint(const RetargetedActor& actor) {
   return map.mapped(retarget::canonical::pelvis) ? map.joints[retarget::canonical::pelvis] : 0;
 }
 
-double actor_clip_end(const SceneActor& actor, const Clip& clip) {
+double actor_clip_end(const SceneActor& actor, double start, const Clip& clip) {
   const double trim_end = std::min(actor.trim_end_s.value_or(clip.duration()), clip.duration());
-  return actor.start_s + std::max(trim_end - actor.trim_start_s, 0.0) / actor.speed;
+  return start + std::max(trim_end - actor.trim_start_s, 0.0) / actor.speed;
 }
 
 // The actor's clip on the scene's timeline: frame f at c(f / fps) (scene.h).
-Clip timed_clip(const SceneActor& actor, const Clip& clip, int frames, double fps) {
+Clip timed_clip(const SceneActor& actor, double start, const Clip& clip, int frames, double fps) {
   const double trim_end = std::min(actor.trim_end_s.value_or(clip.duration()), clip.duration());
   if (actor.trim_start_s > trim_end) {
     throw std::invalid_argument("actor '" + actor.name + "': trim starts at " + std::to_string(actor.trim_start_s) +
@@ -146,7 +149,7 @@ Clip timed_clip(const SceneActor& actor, const Clip& clip, int frames, double fp
   }
   std::vector<double> times(frames);
   for (int f = 0; f < frames; ++f) {
-    times[f] = std::clamp(actor.trim_start_s + actor.speed * (f / fps - actor.start_s), actor.trim_start_s, trim_end);
+    times[f] = std::clamp(actor.trim_start_s + actor.speed * (f / fps - start), actor.trim_start_s, trim_end);
   }
   return clip.sampled_at(times, fps);
 }
@@ -436,7 +439,13 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress) {
   // The timeline, then each clip timed and placed.
   double end = 0;
   for (std::size_t a = 0; a < scene.actors.size(); ++a) {
-    end = std::max(end, actor_clip_end(scene.actors[a], result.actors[a].retargeted->clip()));
+    const SceneActor& spec = scene.actors[a];
+    result.actors[a].start_s = spec.start_s;
+    if (spec.start_range) {
+      SeededUniform draw(scene.seed, 3000 + a);
+      result.actors[a].start_s = draw.between(spec.start_range->first, spec.start_range->second);
+    }
+    end = std::max(end, actor_clip_end(spec, result.actors[a].start_s, result.actors[a].retargeted->clip()));
   }
   const double seconds = scene.seconds.value_or(end);
   result.frames = static_cast<int>(std::floor(seconds * scene.fps * (1 + 1e-9) + 1e-9)) + 1;
@@ -446,7 +455,7 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress) {
   for (std::size_t a = 0; a < scene.actors.size(); ++a) {
     const SceneActor& spec = scene.actors[a];
     PlacedActor& actor = result.actors[a];
-    const Clip timed = timed_clip(spec, actor.retargeted->clip(), frames, scene.fps);
+    const Clip timed = timed_clip(spec, actor.start_s, actor.retargeted->clip(), frames, scene.fps);
     const int root = root_joint(*actor.retargeted);
     const double radius = 0.15 * actor.retargeted->character.rest_bounds().sizes().z();
     std::vector<RigidTransform<double>> world(timed.joint_count());
@@ -675,6 +684,7 @@ nlohmann::ordered_json scene_report_json(const SceneResult& result) {
     entry["name"] = actor.name;
     entry["id"] = a;
     entry["placement"] = {{"x", actor.x}, {"y", actor.y}, {"yaw_deg", actor.yaw_deg}};
+    entry["start_s"] = actor.start_s;
     entry["points"] = actor.points;
     if (a < result.streams.actor_mesh_frames.size()) entry["mesh_frames_skinned"] = result.streams.actor_mesh_frames[a];
     entry["retarget"] = actor_report_json(*actor.retargeted);

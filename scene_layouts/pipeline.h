@@ -40,6 +40,7 @@ struct PlacedActor {
   Clip clip;                   // on the scene's timeline and placement
   double x = 0, y = 0, yaw_deg = 0;  // where the root starts and the direction the actor faces there
   double turn_deg = 0;               // the turn the placement gave the recorded motion
+  double start_s = 0;                // the start used (drawn when the scene gave a range)
   int points = 0;
 };
 

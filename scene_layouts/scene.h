@@ -5,7 +5,8 @@
 // Time. The scene runs at `fps` for `seconds` (default: until the last actor's clip ends). Actor k
 // maps scene time t to its retargeted clip's time
 //   c(t) = clamp(trim_start + speed (t - start), trim_start, trim_end),
-// so before `start` it holds its first pose and after its clip ends its last.
+// so before `start` it holds its first pose and after its clip ends its last. A start given as a
+// range is drawn from the scene's seed.
 //
 // Placement on the floor (z = 0 stays where the retargeting put the feet): "as recorded" keeps the
 // motion where the capture had it; a fixed placement turns the whole motion about the vertical
@@ -47,6 +48,8 @@ struct SceneActor {
   RetargetRequest retarget;
   Placement placement;
   double start_s = 0;                   // scene time at which the (trimmed) clip starts
+  // When set, start_s is drawn uniformly in [first, second] from the scene's seed instead.
+  std::optional<std::pair<double, double>> start_range;
   double trim_start_s = 0;              // clip time of the first pose used
   std::optional<double> trim_end_s;     // clip time of the last (default: the clip's end)
   double speed = 1;                     // > 0; 2 plays the clip twice as fast

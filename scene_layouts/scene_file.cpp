@@ -40,7 +40,7 @@ std::string name_of(const JsonValue& item, const std::string& fallback) {
 }
 
 SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& base) {
-  item.allow_only({"name", "motion", "character", "model", "bvh_units", "quality", "parts", "fps", "weights", "map",
+  item.allow_only({"name", "motion", "character", "model", "betas", "bvh_units", "quality", "parts", "fps", "weights", "map",
                    "source_map", "source_rest", "placement", "start", "trim", "speed", "points", "sampling"});
   SceneActor actor;
   actor.name = name_of(item, "actor" + std::to_string(index));
@@ -53,6 +53,11 @@ SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& 
   actor.retarget = retarget_request(resolve(item.member("motion"), base), resolve(item.member("character"), base), quality);
   RetargetRequest& r = actor.retarget;
   if (const auto value = item.find("model")) r.model_path = resolve(*value, base);
+  if (const auto value = item.find("betas")) {
+    const auto policy = parse_betas_policy(value->string());
+    if (!policy) value->fail(std::string("expected ") + kBetasPolicyNames);
+    r.betas = *policy;
+  }
   if (const auto value = item.find("map")) r.map_path = resolve(*value, base);
   if (const auto value = item.find("source_map")) r.source_map_path = resolve(*value, base);
   if (const auto value = item.find("bvh_units")) {
@@ -105,7 +110,15 @@ SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& 
       }
     }
   }
-  if (const auto value = item.find("start")) actor.start_s = value->number_in(-1e6, 1e6);
+  if (const auto value = item.find("start")) {
+    if (value->is_array()) {
+      if (value->size() != 2) value->fail("expected a time in seconds or a range [min, max] drawn from the seed");
+      actor.start_range = std::pair((*value)[0].number_in(-1e6, 1e6), (*value)[1].number_in(-1e6, 1e6));
+      if (actor.start_range->second < actor.start_range->first) (*value)[1].fail("the range's maximum lies below its minimum");
+    } else {
+      actor.start_s = value->number_in(-1e6, 1e6);
+    }
+  }
   if (const auto value = item.find("trim")) {
     if (value->size() != 2) value->fail("expected [from, to] in seconds of the clip");
     actor.trim_start_s = (*value)[0].number_in(0, 1e7);

@@ -81,7 +81,7 @@ TEST(SceneFileTest, ErrorsNameTheFileAndTheJsonPath) {
 TEST(SceneFileTest, PathsResolveAgainstTheFileOrTheBundledData) {
   const scene::SceneFile file = scene::parse_scene(
       R"({"version": 1, "actors": [{"motion": "data:mocap/cmu_walk_cgspeed.bvh", "character": "chars/c.glb",
-          "placement": {"x": 1, "y": 2, "yaw": 30}, "trim": [0.5, 2], "speed": 2, "start": 1}],
+          "placement": {"x": 1, "y": 2, "yaw": 30}, "trim": [0.5, 2], "speed": 2, "start": [1, 3]}],
           "props": [{"type": "mesh", "path": "/abs/table.obj", "up": "z"}]})",
       "/some/where/shot.json");
   const scene::SceneActor& actor = file.scene.actors[0];
@@ -93,6 +93,8 @@ TEST(SceneFileTest, PathsResolveAgainstTheFileOrTheBundledData) {
   EXPECT_DOUBLE_EQ(actor.trim_start_s, 0.5);
   EXPECT_DOUBLE_EQ(*actor.trim_end_s, 2);
   EXPECT_DOUBLE_EQ(actor.speed, 2);
+  ASSERT_TRUE(actor.start_range);
+  EXPECT_EQ(*actor.start_range, std::pair(1.0, 3.0));
   EXPECT_EQ(file.scene.props[0].path, "/abs/table.obj");
   EXPECT_TRUE(file.scene.props[0].up_z);
   EXPECT_EQ(actor.name, "actor0");
@@ -156,10 +158,14 @@ TEST(ScenePipelineTest, OverlappingActorsAndCamerasInsideGeometryAreErrors) {
   // Placed at random in a region, the second is drawn again until clear: reproducibly.
   shot.actors[1].placement.kind = scene::Placement::Kind::random;
   shot.actors[1].placement.region = Eigen::AlignedBox2d(Eigen::Vector2d(-3, -3), Eigen::Vector2d(3, 3));
+  shot.actors[0].start_range = std::pair(0.2, 0.6);
   const scene::SceneResult first = scene::run_scene(shot);
   const scene::SceneResult second = scene::run_scene(shot);
   EXPECT_EQ(first.actors[1].x, second.actors[1].x);
   EXPECT_EQ(first.actors[1].yaw_deg, second.actors[1].yaw_deg);
+  EXPECT_EQ(first.actors[0].start_s, second.actors[0].start_s);
+  EXPECT_GE(first.actors[0].start_s, 0.2);
+  EXPECT_LE(first.actors[0].start_s, 0.6);
   shot.seed = 1;
   EXPECT_NE(scene::run_scene(shot).actors[1].x, first.actors[1].x);
 
