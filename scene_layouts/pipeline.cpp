@@ -448,6 +448,13 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress) {
     end = std::max(end, actor_clip_end(spec, result.actors[a].start_s, result.actors[a].retargeted->clip()));
   }
   const double seconds = scene.seconds.value_or(end);
+  // Every actor's clip is held on the timeline (J quaternions and a root a frame): a shot of days
+  // is a typo, refused before anything is allocated.
+  constexpr double kMaxFrames = 10'000'000;
+  if (seconds * scene.fps >= kMaxFrames) {
+    throw std::invalid_argument("scene: " + std::to_string(seconds) + " s at " + std::to_string(scene.fps) +
+                                " fps is more than 10,000,000 frames");
+  }
   result.frames = static_cast<int>(std::floor(seconds * scene.fps * (1 + 1e-9) + 1e-9)) + 1;
   const int frames = result.frames;
   std::vector<std::vector<Eigen::Vector2d>> tracks;
@@ -603,6 +610,11 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress) {
     StreamOptions options;
     options.chunk_frames = outputs.chunk_frames;
     options.threads = outputs.threads;
+    if (progress) {
+      options.on_chunk = [&](int done, int total) {
+        progress(ProgressEvent{"export", std::to_string(done) + " of " + std::to_string(total) + " frames", nullptr, done, total});
+      };
+    }
     std::vector<StreamSink*> sink_pointers;
     for (const auto& sink : sinks) sink_pointers.push_back(sink.get());
     result.streams = run_streams(stream_actors, scene.props.empty() ? nullptr : &stream_props, stream_cameras,
@@ -618,11 +630,6 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress) {
     }
   }
   result.seconds.streams = seconds_since(start);
-  if (progress) {
-    progress(ProgressEvent{"export", std::to_string(frames) + " frames of " + std::to_string(scene.actors.size()) +
-                                         " actor(s) and " + std::to_string(scene.cameras.size()) + " camera(s)",
-                           nullptr, frames, frames});
-  }
 
   for (std::size_t c = 0; c < outputs.camera_paths.size(); ++c) {
     if (outputs.camera_paths[c].empty()) continue;

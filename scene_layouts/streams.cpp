@@ -508,6 +508,7 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
     view.cameras = cut;
     for (StreamSink* sink : sinks) sink->write(view);
     for (CameraFrames& out : camera_frames) out.previews.clear();
+    if (options.on_chunk) options.on_chunk(first + count, frames);
   }
   for (StreamSink* sink : sinks) sink->finish();
 

@@ -32,6 +32,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -75,8 +76,9 @@ struct StreamCamera {
 
 struct StreamOptions {
   int chunk_frames = 0;  // frames per chunk; 0: as many as fit in about 16 MiB of output (1 to 256)
-  int threads = 1;       // skinning threads, the caller included
+  int threads = 1;       // skinning and visibility threads, the caller included
   bool reject_camera_inside = true;
+  std::function<void(int done, int total)> on_chunk;  // after each chunk reached the sinks: frames done of total
 };
 
 // A contact-sheet tile (preview.h): one frame as the camera's depth buffer saw it, RGB.
