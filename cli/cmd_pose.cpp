@@ -3,6 +3,7 @@
 // so memory stays flat however long the sequence is.
 #include <cstdio>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -35,7 +36,9 @@ int run_pose(const std::vector<std::string>& arguments) {
       .flag("joints-only", "write joints only, skip the mesh")
       .option("threads", "N", "threads evaluating the mesh (default: every core; the output is the same whatever N)");
   add_bvh_units_option(args);
+  add_betas_option(args);
   if (!args.parse(arguments)) return 0;
+  const BetasPolicy policy = betas_policy(args);
 
   const std::string motion_path = args.get("motion");
   const std::string out_path = args.get("out");
@@ -60,6 +63,15 @@ int run_pose(const std::vector<std::string>& arguments) {
   if (sequence.frame_count() < 1) throw io::InputError(motion_path, "the sequence has no frames");
   if (fps) sequence = sequence.resampled(*fps);
   sequence = sequence_for_model(sequence, model.kind);
+  BetasFit betas;
+  try {
+    betas = fit_betas(model, sequence.betas, policy);
+  } catch (const std::invalid_argument& error) {
+    throw io::InputError(motion_path, std::string(error.what()) + " (model " + model_path + ")");
+  }
+  if (betas.dropped > 0) std::fprintf(stderr, "warning: %s: %s\n", motion_path.c_str(), betas.warning().c_str());
+  std::printf("betas %s\n", betas.summary().c_str());
+  sequence.betas = betas.betas;
 
   BodyModelOptions options;
   options.hands = !args.get_flag("no-hands");

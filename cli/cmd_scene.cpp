@@ -1,5 +1,7 @@
 // odyssey scene: runs a scene file (several actors, props and cameras in one shot) through the
 // library pipeline and writes its outputs into a folder.
+#include <unistd.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -46,9 +48,20 @@ int run_scene(const std::vector<std::string>& arguments) {
   std::filesystem::create_directories(out);
   scene::set_outputs_in_folder(file.scene, out, file.outputs);
   const bool quiet = args.get_flag("quiet");
+  const bool interactive = ::isatty(STDOUT_FILENO) != 0;
   const scene::SceneResult result = scene::run_scene(file.scene, [&](const scene::ProgressEvent& event) {
-    if (quiet) return;
-    if (event.stage == "bone_maps" || event.stage == "retarget") {
+    if (quiet && event.stage != "warning") return;
+    if (event.stage == "export") {
+      // On a terminal one line redrawn in place; in a log a line each tenth of the shot.
+      static long last_tenth = -1;
+      const long tenth = event.total > 0 ? 10 * event.done / event.total : 10;
+      if (interactive) {
+        std::printf("\rframes     %ld of %ld%s", event.done, event.total, event.done == event.total ? "\n" : "");
+      } else if (tenth != last_tenth) {
+        std::printf("frames     %ld of %ld\n", event.done, event.total);
+      }
+      last_tenth = tenth;
+    } else if (event.stage == "bone_maps" || event.stage == "retarget") {
       std::printf("%-10s %s\n", event.stage == "retarget" ? "retarget" : "maps", event.message.c_str());
     } else {
       print_progress(event);

@@ -15,4 +15,19 @@ double bvh_metres_per_unit(const Args& args) {
   return *value;
 }
 
+void add_betas_option(Args& args) {
+  args.option("betas", "POLICY",
+              "an AMASS sequence's betas against the model's shape directions: fit (extra betas dropped with a "
+              "warning, missing ones zero), truncate (drop extras, refuse fewer), pad (zeros for missing ones, "
+              "refuse extras) or error (refuse any mismatch)",
+              "fit");
+}
+
+BetasPolicy betas_policy(const Args& args) {
+  const std::string text = args.get("betas");
+  const std::optional<BetasPolicy> policy = parse_betas_policy(text);
+  if (!policy) throw UsageError(std::string("--betas expects ") + kBetasPolicyNames + ", got '" + text + "'");
+  return *policy;
+}
+
 }  // namespace odyssey::cli

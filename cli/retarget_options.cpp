@@ -144,6 +144,7 @@ void add_retarget_options(Args& args) {
               "bone_direction, end_effector, foot_contact, floor, pose, pelvis, smoothness, pelvis_smoothness "
               "(defaults and units: README, retargeting conventions)");
   add_bvh_units_option(args);
+  add_betas_option(args);
 }
 
 scene::RetargetRequest retarget_request_from(const Args& args) {
@@ -153,6 +154,7 @@ scene::RetargetRequest retarget_request_from(const Args& args) {
   request.map_path = args.get_optional("map");
   request.source_map_path = args.get_optional("source-map");
   request.model_path = args.get_optional("model");
+  request.betas = betas_policy(args);
   const auto parts = retarget::parse_parts(args.get("parts"));
   if (!parts) throw UsageError("--parts expects body, body+hands or all, got '" + args.get("parts") + "'");
   request.parts = *parts;
@@ -173,6 +175,7 @@ scene::RetargetRequest retarget_request_from(const Args& args) {
   if (args.has("bvh-units")) request.bvh_metres_per_unit = bvh_metres_per_unit(args);
   const bool bvh = std::filesystem::path(request.motion_path).extension() == ".bvh";
   if (request.model_path && bvh) throw UsageError("--model is for AMASS sequences; " + request.motion_path + " is a BVH file");
+  if (args.has("betas") && bvh) throw UsageError("--betas is for AMASS sequences; " + request.motion_path + " is a BVH file");
   if (request.bvh_metres_per_unit && !bvh) {
     throw UsageError("--bvh-units is for BVH files; " + request.motion_path + " is not one");
   }
@@ -180,6 +183,13 @@ scene::RetargetRequest retarget_request_from(const Args& args) {
 }
 
 void print_progress(const scene::ProgressEvent& event) {
+  if (event.stage == "export") return;  // the commands print their own closing line of the frames
+  if (event.stage == "warning") {
+    std::fflush(stdout);
+    std::fprintf(stderr, "warning: %s\n", event.message.c_str());
+    std::fflush(stderr);
+    return;
+  }
   static const std::pair<const char*, const char*> kLabels[] = {
       {"load_motion", "motion"}, {"load_character", "character"}, {"bone_maps", "maps"}};
   const char* label = event.stage.c_str();

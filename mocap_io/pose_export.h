@@ -13,7 +13,8 @@ namespace odyssey::io {
 
 // Keys: joints [T,J,3] float32, vertices [T,V,3] float32 (unless joints_only), faces [F,3]
 // uint32, fps (0-d float64), joint_names [J] (unicode), parents [J] int32. Positions are in the
-// sequence's world (Z up for AMASS). The sequence must already be in the model's pose layout.
+// sequence's world (Z up for AMASS). The sequence must already be in the model's pose layout,
+// with no more betas than the model has shape directions (fit them first: skeleton/betas.h).
 // The mesh is evaluated on `threads` threads (0: default_pose_threads()) in batches of 128
 // frames, written while the next batches are evaluated; the output is the same, bit for bit,
 // whatever the thread count.

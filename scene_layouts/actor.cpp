@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -26,6 +28,7 @@ double seconds_since(Clock::time_point start) { return std::chrono::duration<dou
 struct Motion {
   Clip clip;
   std::string description, format, body_model;
+  std::optional<BetasFit> betas;  // AMASS
 };
 
 Motion load_motion(const RetargetRequest& request) {
@@ -51,6 +54,12 @@ Motion load_motion(const RetargetRequest& request) {
     }
     const std::string sequence_kind = body_model_kind_name(sequence.kind);
     sequence = sequence_for_model(sequence, model.kind);
+    try {
+      motion.betas = fit_betas(model, sequence.betas, request.betas);
+    } catch (const std::invalid_argument& error) {
+      throw io::InputError(path, std::string(error.what()) + " (model " + motion.body_model + ")");
+    }
+    sequence.betas = motion.betas->betas;
     try {
       motion.clip = clip_from_body_sequence(model, sequence);
     } catch (const std::invalid_argument& error) {
@@ -114,11 +123,16 @@ RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCal
   actor.motion_format = motion.format;
   actor.motion_description = motion.description;
   actor.body_model = motion.body_model;
+  actor.betas = motion.betas;
   actor.seconds.load_motion = seconds_since(start);
   char line[512];
   std::snprintf(line, sizeof line, "%s: %s, resampled to %d frames at %.6g fps", request.motion_path.c_str(),
                 motion.description.c_str(), actor.source.frame_count(), actor.source.fps);
   report("load_motion", line);
+  if (actor.betas) {
+    report("betas", actor.betas->summary());
+    if (actor.betas->dropped > 0) report("warning", request.motion_path + ": " + actor.betas->warning());
+  }
 
   start = Clock::now();
   actor.character = io::load_character(request.character_path);
@@ -162,6 +176,15 @@ nlohmann::ordered_json actor_report_json(const RetargetedActor& actor) {
                     {"character", request.character_path}};
   if (actor.motion_format == "bvh") json["inputs"]["bvh_metres_per_unit"] = request.bvh_metres_per_unit.value_or(0.01);
   if (actor.motion_format == "amass") json["inputs"]["body_model"] = actor.body_model;
+  if (actor.betas) {
+    const BetasFit& betas = *actor.betas;
+    json["inputs"]["betas"] = {{"policy", betas_policy_name(betas.policy)},
+                               {"file_count", betas.file_count},
+                               {"model_count", betas.model_count},
+                               {"dropped", betas.dropped},
+                               {"largest_dropped_magnitude", betas.largest_dropped},
+                               {"padded", betas.padded}};
+  }
   json["settings"]["parts"] = retarget::parts_name(request.parts);
   json["settings"]["fps"] = request.fps;
   json["settings"]["map_file"] = request.map_path ? nlohmann::ordered_json(*request.map_path) : nlohmann::ordered_json();

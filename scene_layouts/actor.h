@@ -17,6 +17,7 @@
 #include "retarget/parts.h"
 #include "retarget/refine.h"
 #include "retarget/retarget.h"
+#include "skeleton/betas.h"
 #include "skeleton/character.h"
 #include "skeleton/clip.h"
 
@@ -26,6 +27,7 @@ struct RetargetRequest {
   std::string motion_path, character_path;
   std::optional<std::string> map_path, source_map_path;  // JSON bone maps over the found ones
   std::optional<std::string> model_path;                 // AMASS: the body model; default: synthetic SMPL-X, seed 0
+  BetasPolicy betas = BetasPolicy::fit;                   // AMASS: the sequence's betas against the model (skeleton/betas.h)
   retarget::Quality quality = retarget::Quality::fast;
   retarget::Parts parts = retarget::Parts::body;
   double fps = 30;                                        // the motion is resampled to this rate
@@ -45,6 +47,7 @@ struct RetargetedActor {
   std::string motion_format;  // "bvh" or "amass"
   std::string motion_description;  // "BVH, 31 joints, 344 frames at 120 fps"
   std::string body_model;     // AMASS: the model file, or the synthetic body's description
+  std::optional<BetasFit> betas;  // AMASS: what request.betas did to the sequence's betas
   Character character;
   retarget::BoneMap full_source_map, full_target_map;  // before `parts`
   retarget::BoneMap source_map, target_map;            // used
