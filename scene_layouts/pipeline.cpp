@@ -121,7 +121,8 @@ std::string request_key(const RetargetRequest& r) {
                         retarget::parts_name(r.parts),
                         r.fps,
                         r.bvh_metres_per_unit.value_or(-1),
-                        static_cast<int>(r.options.source_rest)};
+                        static_cast<int>(r.options.source_rest),
+                        betas_policy_name(r.betas)};
   const retarget::RefineOptions& o = r.refine_options;
   for (const retarget::RefineWeightName& entry : retarget::refine_weight_names()) key.push_back(o.weights.*(entry.weight));
   key.insert(key.end(), {o.contact_blend_seconds, double(o.window_frames), double(o.window_margin), double(o.max_iterations),
