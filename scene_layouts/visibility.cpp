@@ -107,13 +107,16 @@ PointVisibility DepthBuffer::classify(const Eigen::Vector3d& point) const {
   static_assert((kSlots & (kSlots - 1)) == 0, "the slot count is a power of two");
   std::array<std::uint32_t, kSlots> seen;
   seen.fill(kNoTriangle);
+  // The slot holding `id`, or the empty slot where it would go.
+  auto slot_of = [&](std::uint32_t id) {
+    std::uint32_t slot = (id * 2654435761u) & (kSlots - 1);
+    while (seen[slot] != kNoTriangle && seen[slot] != id) slot = (slot + 1) & (kSlots - 1);
+    return slot;
+  };
   auto add = [&](std::uint32_t id) {
     if (count >= kMaxCandidates) return;
-    std::uint32_t slot = (id * 2654435761u) & (kSlots - 1);
-    while (seen[slot] != kNoTriangle) {
-      if (seen[slot] == id) return;
-      slot = (slot + 1) & (kSlots - 1);
-    }
+    const std::uint32_t slot = slot_of(id);
+    if (seen[slot] == id) return;
     seen[slot] = id;
     candidates[count++] = id;
   };
@@ -167,7 +170,8 @@ PointVisibility DepthBuffer::classify(const Eigen::Vector3d& point) const {
     }
     for (int e = 0; e < 3; ++e) {
       const std::uint32_t other = neighbours_[t + e];
-      if (other != kNoTriangle && meets_box(other)) add(other);
+      // Known triangles are not tested against the box again (each edge is seen from both sides).
+      if (other != kNoTriangle && count < kMaxCandidates && seen[slot_of(other)] != other && meets_box(other)) add(other);
     }
   }
   return {Reason::visible, kNoTriangle};

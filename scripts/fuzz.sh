@@ -14,6 +14,8 @@
 #   ODYSSEY_FUZZ_BUILD_JOBS parallel compile jobs (default: nproc)
 #   ODYSSEY_SHARED_DIR      the shared folder (default: ../shared beside the checkout)
 #   ODYSSEY_FUZZ_NO_BUILD=1 run the harnesses already in build-fuzz/ (no configure, no build)
+#   ODYSSEY_FUZZ_SEED       libFuzzer's -seed (default 0: random); with a RUNS limit and a fresh
+#                           corpus a fixed seed makes the run repeatable, as CI runs it
 #
 # The corpora live in build-fuzz/fuzz-corpus/<harness> and grow from run to run; the shared
 # folder is only ever read. Reproduce a finding with build-fuzz/fuzz/fuzz_<harness> FILE.
@@ -93,7 +95,7 @@ for harness in "${harnesses[@]}"; do
   start=$(date +%s.%N)
   set +e
   UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1} "$binary" "$corpus_root/$harness" \
-    -max_total_time="$seconds" -runs="$runs" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 \
+    -max_total_time="$seconds" -runs="$runs" -seed="${ODYSSEY_FUZZ_SEED:-0}" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 \
     -artifact_prefix="$findings_dir/" >"$log" 2>&1
   rc=$?
   set -e
