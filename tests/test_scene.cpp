@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "cli_runner.h"
+#include "mocap_io/gltf_character.h"
 #include "mocap_io/input_error.h"
 #include "mocap_io/npy.h"
 #include "mocap_io/trajectory_file.h"
@@ -345,6 +346,55 @@ TEST(ScenePipelineTest, ActorsNoCameraSeesAreNotSkinned) {
 
 // The example prints, runs as printed from another folder, and its head camera sees the person in
 // front: most of the leader's points are valid in most frames. Run twice, byte-identical files.
+// Mesh props: an OBJ (Y up, as Blender exports) and a GLB at its rest pose, each turned, scaled and
+// moved as the scene says; a broken OBJ names its line.
+TEST(ScenePipelineTest, MeshPropsFromObjAndGlbAreTurnedScaledAndPlaced) {
+  const fs::path dir = test_support::scratch_dir("scene");
+  std::ofstream(dir / "wedge.obj") << "# a wedge\nv 0 0 0\nv 1 0 0\nv 0 2 0\nv 0 0 3\nf 1 2 3\nf 1/1/1 3/1/1 4/1/1\nf -4 -3 -1\n";
+  scene::Scene shot;
+  shot.actors = {walker("solo", kFigure, 0, 0, 0)};
+  shot.seconds = 0.1;
+  scene::Prop wedge;
+  wedge.kind = scene::Prop::Kind::mesh;
+  wedge.name = "wedge";
+  wedge.path = (dir / "wedge.obj").string();
+  wedge.position = Eigen::Vector3d(5, 0, 0);
+  wedge.yaw_deg = 90;
+  wedge.scale = 2;
+  scene::Prop cylinder = wedge;
+  cylinder.name = "cylinder";
+  cylinder.path = std::string(ODYSSEY_SHARED_DIR) + "/assets/characters/RiggedSimple.glb";
+  cylinder.position = Eigen::Vector3d(-5, 1, 0);
+  cylinder.yaw_deg = 0;
+  cylinder.scale = 1;
+  shot.props = {wedge, cylinder};
+  const scene::SceneResult result = scene::run_scene(shot);
+  ASSERT_EQ(result.props.meshes.size(), 2u);
+  const CharacterMesh& w = result.props.meshes[0];
+  ASSERT_EQ(w.positions.size(), 4u);
+  EXPECT_EQ(w.triangles.size(), 9u);
+  // OBJ (x, y, z) Y up is (x, -z, y) Z up; yaw 90 turns (x, y) to (-y, x); then x2 and + (5, 0, 0).
+  const auto expected = [](double x, double y, double z) {
+    const Eigen::Vector3d z_up(x, -z, y);
+    return Eigen::Vector3d(5 - 2 * z_up.y(), 2 * z_up.x(), 2 * z_up.z());
+  };
+  EXPECT_LT((w.positions[1].cast<double>() - expected(1, 0, 0)).norm(), 1e-6);
+  EXPECT_LT((w.positions[2].cast<double>() - expected(0, 2, 0)).norm(), 1e-6);
+  EXPECT_LT((w.positions[3].cast<double>() - expected(0, 0, 3)).norm(), 1e-6);
+  // The GLB at rest, moved by (-5, 1, 0): its box is the character's rest box moved so.
+  const Eigen::AlignedBox3d rest = io::load_character(cylinder.path).rest_bounds();
+  Eigen::AlignedBox3d placed;
+  for (const Eigen::Vector3f& p : result.props.meshes[1].positions) placed.extend(p.cast<double>());
+  EXPECT_LT((placed.min() - (rest.min() + cylinder.position)).norm(), 1e-5);
+  EXPECT_LT((placed.max() - (rest.max() + cylinder.position)).norm(), 1e-5);
+
+  std::ofstream(dir / "broken.obj") << "v 0 0 0\nv 1 0 0\nf 1 2 7\n";
+  shot.props = {wedge};
+  shot.props[0].path = (dir / "broken.obj").string();
+  const std::string message = test_support::message_of<io::InputError>([&] { scene::run_scene(shot); });
+  EXPECT_TRUE(contains(message, "broken.obj: line 3: face corner 7 names a vertex not defined before it")) << message;
+}
+
 // A contact sheet: six half-size tiles, the actor drawn in its colour where the camera sees it,
 // green dots on its visible points, read back with libpng.
 TEST(ScenePipelineTest, ContactSheetShowsTheActorAndItsVisiblePoints) {
