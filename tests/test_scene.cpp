@@ -456,7 +456,7 @@ TEST(SceneCliTest, TheExampleRunsFromAnyFolderAndTheHeadCameraSeesTheOtherPerson
   }
   EXPECT_GT(frames_mostly_valid * 2, frames) << frames_mostly_valid << " of " << frames;
   for (const char* name : {"trajectories_orbit.npz", "trajectories_corner.npz", "camera_head.json", "report.json",
-                           "retarget_leader.json"}) {
+                           "retarget_leader.json", "preview_head.png", "scene.glb"}) {
     EXPECT_TRUE(fs::exists(dir / "out" / name)) << name;
   }
   const test_support::CliResult again = test_support::run_cli_in("/", command + (dir / "again").string() + " --quiet");
