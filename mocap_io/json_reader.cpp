@@ -128,7 +128,8 @@ JsonDocument JsonDocument::parse(const std::string& text, const std::string& nam
   };
   try {
     document.json_ = nlohmann::json::parse(text, depth_limit);
-  } catch (const nlohmann::json::parse_error& error) {
+  } catch (const nlohmann::json::exception& error) {
+    // parse_error, and out_of_range for a number too large for a double (1e99999).
     throw InputError(name, std::string("not valid JSON: ") + error.what());
   }
   return document;

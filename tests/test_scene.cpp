@@ -77,6 +77,8 @@ TEST(SceneFileTest, ErrorsNameTheFileAndTheJsonPath) {
                        "actors[0].motion: not a string"));
   EXPECT_TRUE(contains(parse_error(std::string(200, '[') + std::string(200, ']')), "nested deeper than 64 levels"));
   EXPECT_TRUE(contains(parse_error("{\"version\": 1,"), "shot.json: not valid JSON"));
+  // Found by fuzz_scene: a number beyond double's range is nlohmann's out_of_range, not a parse error.
+  EXPECT_TRUE(contains(parse_error("{\"version\": 1, \"fps\": 8.9E99999}"), "shot.json: not valid JSON: [json.exception.out_of_range.406]"));
 }
 
 TEST(SceneFileTest, PathsResolveAgainstTheFileOrTheBundledData) {
