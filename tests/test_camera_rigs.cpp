@@ -48,7 +48,7 @@ const Quaterniond kHeadRest = about(0.7, Vector3d(1, 2, 3));
 constexpr int kPelvis = 0, kLeftHip = 1, kRightHip = 2, kSpine = 3, kHead = 4;
 
 Skeleton small_rig() {
-  return Skeleton({"pelvis", "left_hip", "right_hip", "spine", "head"}, {-1, 0, 0, 0, 3},
+  return Skeleton({"pelvis", "left_hip", "right_hip", "spine", "head"}, {-1, kPelvis, kPelvis, kPelvis, kSpine},
                   {Vector3d(0, 0, 1), Vector3d(-0.1, 0, -0.05), Vector3d(0.1, 0, -0.05), Vector3d(0, 0, 0.3),
                    Vector3d(0, 0.02, 0.25)},
                   {Quaterniond::Identity(), Quaterniond::Identity(), Quaterniond::Identity(), Quaterniond::Identity(),

@@ -340,9 +340,11 @@ TEST(NpyHeader, RejectsBadHeaders) {
       {"{'descr': '<f8', 'fortran_order': False, 'shape': (2,), }", "data length mismatch"},
       {"['descr', '<f8']", "bad .npy header"},
   };
-  for (const auto& [dict, fragment] : cases) {
+  // Plain names rather than a structured binding: clang 14 cannot capture bindings in a lambda.
+  for (const auto& bad : cases) {
+    const std::string& dict = bad.first;
     SCOPED_TRACE(dict);
-    expect_input_error([&] { parse_npy(raw_npy(dict, data), "bad.npy"); }, "bad.npy", fragment);
+    expect_input_error([&] { parse_npy(raw_npy(dict, data), "bad.npy"); }, "bad.npy", bad.second);
   }
   auto bad_version = raw_npy("{'descr': '<f8', 'fortran_order': False, 'shape': (3,), }", data);
   bad_version[6] = std::byte{4};
