@@ -21,6 +21,7 @@
 #include "retarget/canonical.h"
 #include "scene_layouts/pipeline.h"
 #include "scene_layouts/scene_file.h"
+#include "scene_support.h"
 #include "test_support.h"
 
 namespace odyssey {
@@ -29,22 +30,10 @@ namespace {
 namespace fs = std::filesystem;
 using test_support::contains;
 
-const std::string kData = ODYSSEY_DATA_DIR;
-const std::string kWalk = kData + "/mocap/cmu_walk_cgspeed.bvh";
-const std::string kFigure = kData + "/characters/RiggedFigure.glb";
-const std::string kCesium = kData + "/characters/CesiumMan.glb";
+const std::string kFigure = test_support::kSceneFigure;
+const std::string kCesium = test_support::kSceneCesium;
+using test_support::walker;
 
-scene::SceneActor walker(const std::string& name, const std::string& character, double x, double y, double yaw) {
-  scene::SceneActor actor;
-  actor.name = name;
-  actor.retarget = scene::retarget_request(kWalk, character, retarget::Quality::fast);
-  actor.retarget.bvh_metres_per_unit = 0.056444;
-  actor.placement.kind = scene::Placement::Kind::fixed;
-  actor.placement.x = x;
-  actor.placement.y = y;
-  actor.placement.yaw_deg = yaw;
-  return actor;
-}
 
 std::string parse_error(const std::string& json) {
   return test_support::message_of<io::InputError>([&] { scene::parse_scene(json, "shot.json"); });

@@ -21,6 +21,7 @@
 #include "mocap_io/scene_glb.h"
 #include "scene_layouts/pipeline.h"
 #include "skeleton/rotation.h"
+#include "scene_support.h"
 #include "test_support.h"
 
 namespace odyssey {
@@ -29,10 +30,9 @@ namespace {
 namespace fs = std::filesystem;
 using test_support::contains;
 
-const std::string kData = ODYSSEY_DATA_DIR;
-const std::string kWalk = kData + "/mocap/cmu_walk_cgspeed.bvh";
-const std::string kFigure = kData + "/characters/RiggedFigure.glb";
-const std::string kCesium = kData + "/characters/CesiumMan.glb";
+const std::string kFigure = test_support::kSceneFigure;
+const std::string kCesium = test_support::kSceneCesium;
+using test_support::walker;
 
 fs::path validator_dir() { return fs::path(__FILE__).parent_path().parent_path() / "tools" / "gltf-validator"; }
 // Built by appending: GCC 12 warns (-Wrestrict, falsely) on "'" + path.string() + "'".
@@ -43,17 +43,6 @@ std::string quoted(const fs::path& path) {
   return text;
 }
 
-scene::SceneActor walker(const std::string& name, const std::string& character, double x, double y, double yaw) {
-  scene::SceneActor actor;
-  actor.name = name;
-  actor.retarget = scene::retarget_request(kWalk, character, retarget::Quality::fast);
-  actor.retarget.bvh_metres_per_unit = 0.056444;
-  actor.placement.kind = scene::Placement::Kind::fixed;
-  actor.placement.x = x;
-  actor.placement.y = y;
-  actor.placement.yaw_deg = yaw;
-  return actor;
-}
 
 // Two walkers side by side, a box ahead of them, a static camera and one on the first's head.
 const scene::SceneResult& shared_scene() {
