@@ -36,6 +36,7 @@
 #include "skeleton/camera.h"
 #include "skeleton/rotation.h"
 #include "test_support.h"
+#include "gltf_validator.h"
 
 namespace odyssey::io {
 namespace {
@@ -257,13 +258,11 @@ fs::path write_filmed_figure(const std::string& name, const Character& character
   return out;
 }
 
-fs::path validator_dir() { return fs::path(__FILE__).parent_path().parent_path() / "tools" / "gltf-validator"; }
+using test_support::validator_dir;
+using test_support::validator_missing;
 
 TEST(GlbCameraTest, PassesTheKhronosValidatorWithZeroErrors) {
-  if (std::system("node --version > /dev/null 2>&1") != 0) GTEST_SKIP() << "node is not installed";
-  if (!fs::exists(validator_dir() / "node_modules" / "gltf-validator")) {
-    GTEST_SKIP() << "the glTF validator is not installed: npm install --prefix " << validator_dir().string();
-  }
+  if (const std::string missing = validator_missing(); !missing.empty()) GTEST_SKIP() << missing;
   const Character character = load_character(figure_path());
   const fs::path out = write_filmed_figure("filmed_validated.glb", character, orbit_around(character, kFrames));
   const fs::path log = fs::path(out).replace_extension(".validator.txt");

@@ -39,6 +39,7 @@
 #include "mocap_io/input_error.h"
 #include "skeleton/rotation.h"
 #include "test_support.h"
+#include "gltf_validator.h"
 
 namespace odyssey::io {
 namespace {
@@ -60,7 +61,8 @@ fs::path scratch_dir() {
 }
 
 // tools/gltf-validator beside tests/ in the source tree.
-fs::path validator_dir() { return fs::path(__FILE__).parent_path().parent_path() / "tools" / "gltf-validator"; }
+using test_support::validator_dir;
+using test_support::validator_missing;
 
 std::string quoted(const fs::path& path) {
   std::string text = "'";
@@ -252,15 +254,6 @@ double mesh_error(const tinygltf::Model& model, const Character& character, doub
 }
 
 // --- The Khronos validator, through node. ---
-
-// Why the validator cannot run here, or "" when it can.
-std::string validator_missing() {
-  if (std::system("node --version > /dev/null 2>&1") != 0) return "node is not installed";
-  if (!fs::exists(validator_dir() / "node_modules" / "gltf-validator")) {
-    return "the glTF validator is not installed: npm install --prefix " + validator_dir().string() + " --package-lock=false";
-  }
-  return "";
-}
 
 void expect_zero_validator_errors(const fs::path& file) {
   const fs::path log = fs::path(file).replace_extension(".validator.txt");

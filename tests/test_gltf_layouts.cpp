@@ -30,6 +30,7 @@
 #include "mocap_io/gltf_export.h"
 #include "mocap_io/input_error.h"
 #include "test_support.h"
+#include "gltf_validator.h"
 
 namespace odyssey::io {
 namespace {
@@ -294,15 +295,8 @@ class Reencoder {
 
 // --- The Khronos validator, through node (as tests/test_gltf_export.cpp runs it). ---
 
-fs::path validator_dir() { return fs::path(__FILE__).parent_path().parent_path() / "tools" / "gltf-validator"; }
-
-std::string validator_missing() {
-  if (std::system("node --version > /dev/null 2>&1") != 0) return "node is not installed";
-  if (!fs::exists(validator_dir() / "node_modules" / "gltf-validator")) {
-    return "the glTF validator is not installed: npm install --prefix " + validator_dir().string() + " --package-lock=false";
-  }
-  return "";
-}
+using test_support::validator_dir;
+using test_support::validator_missing;
 
 struct ValidatorReport {
   int errors = -1;  // -1: the report could not be read

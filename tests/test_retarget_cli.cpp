@@ -39,6 +39,7 @@
 #include "skeleton/body_clip.h"
 #include "skeleton/synthetic_body.h"
 #include "test_support.h"
+#include "gltf_validator.h"
 
 namespace odyssey::retarget {
 namespace {
@@ -83,15 +84,8 @@ void expect_no_output_named(const std::string& stem) {
 
 // --- The Khronos validator, through node (as tests/test_gltf_export.cpp). ---
 
-fs::path validator_dir() { return fs::path(__FILE__).parent_path().parent_path() / "tools" / "gltf-validator"; }
-
-std::string validator_missing() {
-  if (std::system("node --version > /dev/null 2>&1") != 0) return "node is not installed";
-  if (!fs::exists(validator_dir() / "node_modules" / "gltf-validator")) {
-    return "the glTF validator is not installed: npm install --prefix " + validator_dir().string() + " --package-lock=false";
-  }
-  return "";
-}
+using test_support::validator_dir;
+using test_support::validator_missing;
 
 void expect_zero_validator_errors(const fs::path& file) {
   const fs::path log = fs::path(file).replace_extension(".validator.txt");

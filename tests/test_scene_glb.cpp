@@ -23,6 +23,7 @@
 #include "skeleton/rotation.h"
 #include "scene_support.h"
 #include "test_support.h"
+#include "gltf_validator.h"
 
 namespace odyssey {
 namespace {
@@ -34,7 +35,8 @@ const std::string kFigure = test_support::kSceneFigure;
 const std::string kCesium = test_support::kSceneCesium;
 using test_support::walker;
 
-fs::path validator_dir() { return fs::path(__FILE__).parent_path().parent_path() / "tools" / "gltf-validator"; }
+using test_support::validator_dir;
+using test_support::validator_missing;
 // Built by appending: GCC 12 warns (-Wrestrict, falsely) on "'" + path.string() + "'".
 std::string quoted(const fs::path& path) {
   std::string text = "'";
@@ -183,14 +185,6 @@ std::vector<Eigen::Matrix4d> world_at_frame(const Glb& glb, int frame) {
 }
 
 // --- The Khronos validator, through node (as test_gltf_export.cpp runs it). ---
-
-std::string validator_missing() {
-  if (std::system("node --version > /dev/null 2>&1") != 0) return "node is not installed";
-  if (!fs::exists(validator_dir() / "node_modules" / "gltf-validator")) {
-    return "the glTF validator is not installed: npm install --prefix " + validator_dir().string() + " --package-lock=false";
-  }
-  return "";
-}
 
 TEST(SceneGlbTest, PassesTheKhronosValidatorWithZeroErrors) {
   if (const std::string missing = validator_missing(); !missing.empty()) GTEST_SKIP() << missing;
