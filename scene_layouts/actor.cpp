@@ -1,5 +1,7 @@
 #include "scene_layouts/actor.h"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -31,7 +33,7 @@ struct Motion {
   std::optional<BetasFit> betas;  // AMASS
 };
 
-Motion load_motion(const RetargetRequest& request) {
+Motion load_motion(const RetargetRequest& request, LoadCache* cache) {
   const std::string& path = request.motion_path;
   Motion motion;
   const io::MotionFileKind kind = io::detect_motion_file(path);
@@ -44,14 +46,16 @@ Motion load_motion(const RetargetRequest& request) {
     if (request.bvh_metres_per_unit) throw io::InputError(path, "a BVH unit is for BVH files; this is an AMASS sequence");
     BodySequence sequence = io::load_amass_file(path).sequence;
     if (sequence.frame_count() < 1) throw io::InputError(path, "the sequence has no frames");
-    BodyModel model;
-    if (request.model_path) {
-      model = io::load_body_model(*request.model_path);
-      motion.body_model = *request.model_path;
+    std::shared_ptr<const BodyModel> loaded;
+    if (cache) {
+      loaded = cache->body_model(request.model_path);
+    } else if (request.model_path) {
+      loaded = std::make_shared<const BodyModel>(io::load_body_model(*request.model_path));
     } else {
-      model = make_synthetic_body(0).model;
-      motion.body_model = "synthetic SMPL-X body (seed 0)";
+      loaded = std::make_shared<const BodyModel>(make_synthetic_body(0).model);
     }
+    const BodyModel& model = *loaded;
+    motion.body_model = request.model_path ? *request.model_path : "synthetic SMPL-X body (seed 0)";
     const std::string sequence_kind = body_model_kind_name(sequence.kind);
     sequence = sequence_for_model(sequence, model.kind);
     try {
@@ -105,7 +109,42 @@ RetargetRequest retarget_request(std::string motion_path, std::string character_
   return request;
 }
 
-RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCallback& progress) {
+namespace {
+
+// The file's size and modification time, or nothing when it cannot be read (the loader then
+// reports the problem).
+std::optional<std::pair<std::uintmax_t, std::int64_t>> file_stamp(const std::string& path) {
+  struct stat status {};
+  if (::stat(path.c_str(), &status) != 0) return std::nullopt;
+  return std::make_pair(static_cast<std::uintmax_t>(status.st_size),
+                        static_cast<std::int64_t>(status.st_mtim.tv_sec) * 1000000000 + status.st_mtim.tv_nsec);
+}
+
+template <class T, class Load>
+std::shared_ptr<const T> cached(std::map<std::string, LoadCache::Entry<T>>& entries, const std::string& key,
+                                const std::string& path, Load&& load) {
+  const auto stamp = path.empty() ? std::make_optional(std::make_pair(std::uintmax_t{0}, std::int64_t{0})) : file_stamp(path);
+  auto found = entries.find(key);
+  if (stamp && found != entries.end() && found->second.size == stamp->first && found->second.mtime_ns == stamp->second) {
+    return found->second.value;
+  }
+  auto value = std::make_shared<const T>(load());
+  if (stamp) entries[key] = {stamp->first, stamp->second, value};
+  return value;
+}
+
+}  // namespace
+
+std::shared_ptr<const Character> LoadCache::character(const std::string& path) {
+  return cached(characters_, path, path, [&] { return io::load_character(path); });
+}
+
+std::shared_ptr<const BodyModel> LoadCache::body_model(const std::optional<std::string>& path) {
+  if (!path) return cached(body_models_, "", "", [] { return make_synthetic_body(0).model; });
+  return cached(body_models_, *path, *path, [&] { return io::load_body_model(*path); });
+}
+
+RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCallback& progress, LoadCache* cache) {
   if (request.quality != retarget::Quality::fast && request.refine_options.quality != request.quality) {
     throw std::invalid_argument("the refinement options are " + std::string(retarget::quality_name(request.refine_options.quality)) +
                                 "'s, the request asks for " + retarget::quality_name(request.quality));
@@ -117,7 +156,7 @@ RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCal
   };
 
   auto start = Clock::now();
-  Motion motion = load_motion(request);
+  Motion motion = load_motion(request, cache);
   actor.source_fps = motion.clip.fps;
   actor.source = motion.clip.resampled(request.fps);
   actor.motion_format = motion.format;
@@ -135,7 +174,7 @@ RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCal
   }
 
   start = Clock::now();
-  actor.character = io::load_character(request.character_path);
+  actor.character = cache ? *cache->character(request.character_path) : io::load_character(request.character_path);
   actor.seconds.load_character = seconds_since(start);
   std::snprintf(line, sizeof line, "%s: %d joints, %zu mesh%s", request.character_path.c_str(),
                 actor.character.skeleton.joint_count(), actor.character.meshes.size(),

@@ -7,7 +7,10 @@
 // motion wherever it is written.
 #pragma once
 
+#include <cstdint>
 #include <functional>
+#include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -18,6 +21,7 @@
 #include "retarget/refine.h"
 #include "retarget/retarget.h"
 #include "skeleton/betas.h"
+#include "skeleton/body_model.h"
 #include "skeleton/character.h"
 #include "skeleton/clip.h"
 
@@ -72,8 +76,30 @@ struct ProgressEvent {
 };
 using ProgressCallback = std::function<void(const ProgressEvent&)>;
 
-// Runs the steps above. Errors propagate: io::InputError naming the file, std::invalid_argument.
-RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCallback& progress = {});
+// Characters and body models loaded by earlier requests of this process, reused while their file's
+// size and modification time are unchanged: a batch worker runs many jobs on a few characters and
+// one body model. Not thread-safe; one per worker.
+class LoadCache {
+ public:
+  std::shared_ptr<const Character> character(const std::string& path);
+  std::shared_ptr<const BodyModel> body_model(const std::optional<std::string>& path);  // empty: synthetic SMPL-X, seed 0
+
+  template <class T>
+  struct Entry {
+    std::uintmax_t size = 0;
+    std::int64_t mtime_ns = 0;
+    std::shared_ptr<const T> value;
+  };
+
+ private:
+  std::map<std::string, Entry<Character>> characters_;
+  std::map<std::string, Entry<BodyModel>> body_models_;
+};
+
+// Runs the steps above, loading through `cache` when given. Errors propagate: io::InputError
+// naming the file, std::invalid_argument.
+RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCallback& progress = {},
+                               LoadCache* cache = nullptr);
 
 // The actor's report: retarget::report_json's entries, with the inputs, the settings (every
 // refinement weight), the parts left out, the refinement and the stage timings.

@@ -64,7 +64,8 @@ struct SceneResult {
 
 // Throws io::InputError naming the file (and JSON path, where the scene came from one) or
 // std::invalid_argument naming the actor, camera or frame.
-SceneResult run_scene(const Scene& scene, const ProgressCallback& progress = {});
+// `cache`, when given, keeps loaded characters and body models for later scenes (a batch worker's).
+SceneResult run_scene(const Scene& scene, const ProgressCallback& progress = {}, LoadCache* cache = nullptr);
 
 // The scene's report: per actor its retargeting report and placement, per camera its visibility
 // figures, what was skipped, the outputs and the timings.
