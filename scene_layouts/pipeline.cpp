@@ -408,7 +408,7 @@ std::string obj_beside(const std::string& pc2) { return std::filesystem::path(pc
 
 }  // namespace
 
-SceneResult run_scene(const Scene& scene, const ProgressCallback& progress) {
+SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, LoadCache* cache) {
   const auto total_start = Clock::now();
   validate_scene(scene);
   SceneResult result;
@@ -424,7 +424,7 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress) {
   std::map<std::string, std::shared_ptr<const RetargetedActor>> retargeted;
   for (const SceneActor& actor : scene.actors) {
     std::shared_ptr<const RetargetedActor>& slot = retargeted[request_key(actor.retarget)];
-    if (!slot) slot = std::make_shared<const RetargetedActor>(retarget_actor(actor.retarget, progress));
+    if (!slot) slot = std::make_shared<const RetargetedActor>(retarget_actor(actor.retarget, progress, cache));
     PlacedActor placed;
     placed.name = actor.name;
     placed.retargeted = slot;
