@@ -110,7 +110,8 @@ void print_result(const retarget::RetargetReport& report) {
   std::printf("  branch directions      mean %.3f deg, max %.3f deg (the rigs' builds: hip width, shoulder slope)\n",
               result.branch_direction.mean_deg, result.branch_direction.max_deg);
   std::printf("  end-effector error     mean %.4f m, max %.4f m\n", result.end_effector_mean_m, result.end_effector_max_m);
-  std::printf("  foot skate ratio       %.4f (%.4f)\n", result.foot_skate_ratio, source.foot_skate_ratio);
+  std::printf("  foot skate ratio       %.4f (%.4f), thresholds scaled by the scale; GMD's fixed 5 cm, 0.5 m/s: %.4f\n",
+              result.foot_skate_ratio, source.foot_skate_ratio, result.foot_skate_ratio_gmd);
   std::printf("  penetration            %.3f cm (%.3f)\n", result.penetration_cm, source.penetration_cm);
   std::printf("  floating               %.3f cm (%.3f)\n", result.floating_cm, source.floating_cm);
   std::printf("  jitter                 %.3f m/s^2 (%.3f)\n", result.jitter, source.jitter);

@@ -38,12 +38,16 @@ struct FramePose {
 };
 
 // Skate, penetration/floating and jitter of one clip: streams the frames keeping the two before.
+// The skate ratio is counted twice, against `scaled` thresholds (foot_skate_ratio) and against
+// `gmd` thresholds (foot_skate_ratio_gmd), both in the units of the clip as measured (times
+// `scale`).
 void motion_metrics(const Clip& clip, double scale, const Feet& feet, const FootContacts& contacts,
-                    const std::vector<int>& jitter_joints, const MetricThresholds& thresholds, RetargetMetrics& metrics) {
+                    const std::vector<int>& jitter_joints, const MetricThresholds& scaled, const MetricThresholds& gmd,
+                    RetargetMetrics& metrics) {
   const int frames = clip.frame_count();
   const int joints = clip.joint_count();
   FramePose before2(joints), before(joints), now(joints);
-  long skating = 0, skate_samples = 0, contact_samples = 0;
+  long skating = 0, skating_gmd = 0, skate_samples = 0, contact_samples = 0;
   double depth_sum = 0, height_sum = 0, jitter_sum = 0;
   long jitter_samples = 0;
   Feet scaled_feet = feet;
@@ -64,8 +68,12 @@ void motion_metrics(const Clip& clip, double scale, const Feet& feet, const Foot
         const int lowest = lowest_foot_joint(foot, before.position);
         const double clearance_before = before.position[foot.joints[lowest]].z() - foot.ground_heights[lowest];
         const Eigen::Vector3d step = now.position[foot.joints[lowest]] - before.position[foot.joints[lowest]];
-        const bool in_contact = clearance_before < thresholds.contact_height && clearance < thresholds.contact_height;
-        if (in_contact && step.head<2>().norm() * clip.fps > thresholds.skate_speed) ++skating;
+        const double speed = step.head<2>().norm() * clip.fps;
+        const auto skates = [&](const MetricThresholds& t) {
+          return clearance_before < t.contact_height && clearance < t.contact_height && speed > t.skate_speed;
+        };
+        if (skates(scaled)) ++skating;
+        if (skates(gmd)) ++skating_gmd;
         ++skate_samples;
       }
     }
@@ -79,6 +87,7 @@ void motion_metrics(const Clip& clip, double scale, const Feet& feet, const Foot
     std::swap(before, now);
   }
   metrics.foot_skate_ratio = skate_samples ? static_cast<double>(skating) / skate_samples : 0.0;
+  metrics.foot_skate_ratio_gmd = skate_samples ? static_cast<double>(skating_gmd) / skate_samples : 0.0;
   metrics.penetration_cm = contact_samples ? 100.0 * depth_sum / contact_samples : 0.0;
   metrics.floating_cm = contact_samples ? 100.0 * height_sum / contact_samples : 0.0;
   metrics.jitter = jitter_samples ? jitter_sum / jitter_samples : 0.0;
@@ -101,13 +110,19 @@ void check_frames(const Clip& clip, int joints, int frames, const char* what) {
   }
 }
 
+MetricThresholds scaled_by(const MetricThresholds& thresholds, double scale) {
+  return {thresholds.contact_height * scale, thresholds.skate_speed * scale};
+}
+
 }  // namespace
 
 RetargetMetrics source_metrics(const RetargetRig& rig, const Clip& source, const Feet& feet, const FootContacts& contacts,
                                const MetricThresholds& thresholds) {
   check_frames(source, rig.source.joint_count(), contacts.frame_count(), "source");
   RetargetMetrics metrics;
-  motion_metrics(source, rig.scale, feet, contacts, paired_joints(rig, true), thresholds, metrics);
+  // Scaled by s, the thresholds at the source's own size: both figures are the GMD one.
+  const MetricThresholds at_own_size = scaled_by(thresholds, rig.scale);
+  motion_metrics(source, rig.scale, feet, contacts, paired_joints(rig, true), at_own_size, at_own_size, metrics);
   return metrics;
 }
 
@@ -116,7 +131,8 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
   check_frames(source, rig.source.joint_count(), contacts.frame_count(), "source");
   check_frames(result, rig.target.joint_count(), contacts.frame_count(), "result");
   RetargetMetrics metrics;
-  motion_metrics(result, 1.0, target_feet, contacts, paired_joints(rig, false), thresholds, metrics);
+  motion_metrics(result, 1.0, target_feet, contacts, paired_joints(rig, false), scaled_by(thresholds, rig.scale),
+                 thresholds, metrics);
 
   // Direction and end-effector errors, frame by frame.
   const std::vector<RigidTransform<double>> target_rest = rig.target.rest_world();

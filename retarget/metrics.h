@@ -14,8 +14,15 @@
 // End-effector error, m: per frame and paired head, wrist and ankle e,
 //   | (p_T(e) - p_T(pelvis)) - s (p_S(e) - p_S(pelvis)) |,   mean and max.
 // Foot skate ratio: over every foot and every pair of consecutive frames (t, t+1), the share where
-// the foot is in contact (clearance, contacts.h, under 5 cm in both frames) and the foot joint that
-// is lowest in frame t moves faster than 0.5 m/s horizontally between t and t+1.
+// the foot is in contact (clearance, contacts.h, under h in both frames) and the foot joint that
+// is lowest in frame t moves faster than v horizontally between t and t+1. Two figures:
+//   foot_skate_ratio      scale-aware, the one targets use: a character s times the performer's
+//                         size (s = rig.scale) is judged with h = 5 cm * s and v = 0.5 m/s * s,
+//                         so a motion and the same motion scaled by s skate alike;
+//   foot_skate_ratio_gmd  GMD's: h = 5 cm and v = 0.5 m/s whatever the clip's size.
+// The source is measured at its own (the performer's) size, where the scale-aware thresholds are
+// GMD's, so its two figures are the same number. A giant (s > 1) skates less by GMD's figure than
+// by the scale-aware one, since fixed thresholds are small against its strides.
 // Penetration / floating, cm: over the (foot, frame) where the SOURCE foot is planted
 // (FootContacts), the mean of max(0, -clearance) and of max(0, clearance). The lowest foot point
 // is the lowest of the foot's joints (ankle, ball of the foot) relative to its ground height.
@@ -50,11 +57,13 @@ struct RetargetMetrics {
   std::vector<NamedDirectionError> bones;  // every chain bone
   DirectionError branch_direction;
   double end_effector_mean_m = 0, end_effector_max_m = 0;
-  double foot_skate_ratio = 0;
+  double foot_skate_ratio = 0;      // scale-aware (above)
+  double foot_skate_ratio_gmd = 0;  // fixed thresholds (above)
   double penetration_cm = 0, floating_cm = 0;
   double jitter = 0;  // m/s^2
 };
 
+// GMD's thresholds, at the performer's size (the scale-aware figure multiplies them by s).
 struct MetricThresholds {
   double contact_height = 0.05;  // m
   double skate_speed = 0.5;      // m/s

@@ -30,6 +30,7 @@ nlohmann::ordered_json metrics_json(const RetargetMetrics& metrics, bool compara
     json["end_effector_m"] = {{"mean", metrics.end_effector_mean_m}, {"max", metrics.end_effector_max_m}};
   }
   json["foot_skate_ratio"] = metrics.foot_skate_ratio;
+  json["foot_skate_ratio_gmd"] = metrics.foot_skate_ratio_gmd;
   json["penetration_cm"] = metrics.penetration_cm;
   json["floating_cm"] = metrics.floating_cm;
   json["jitter_m_per_s2"] = metrics.jitter;

@@ -92,6 +92,7 @@ TEST(MetricsTest, SkatePenetrationFloatingAndJitterByHand) {
   contacts.planted[1] = {1, 1, 1, 1, 1};
   const RetargetMetrics metrics = source_metrics(fixture.rig, clip, ankles_on_floor(), contacts);
   EXPECT_DOUBLE_EQ(metrics.foot_skate_ratio, 1.0 / 8.0);
+  EXPECT_DOUBLE_EQ(metrics.foot_skate_ratio_gmd, 1.0 / 8.0);  // s = 1: the two figures agree
   EXPECT_NEAR(metrics.penetration_cm, 0.625, 1e-12);
   EXPECT_NEAR(metrics.floating_cm, 0.5, 1e-12);
   const double jitter = (0.05 + std::sqrt(0.0029) + std::sqrt(0.0101)) * 100.0 / 15.0;
@@ -126,6 +127,54 @@ TEST(MetricsTest, BoneDirectionAndEndEffectorByHand) {
   EXPECT_NEAR(metrics.branch_direction.max_deg, 0.0, 1e-9);  // pelvis -> knees untouched
   EXPECT_NEAR(metrics.end_effector_mean_m, 0.05, 1e-12);
   EXPECT_NEAR(metrics.end_effector_max_m, 0.1, 1e-12);
+}
+
+// Scale-aware skate. The target is legs() twice as large (pelvis at 2 m), so s = 2 and the
+// scale-aware thresholds are 10 cm and 1 m/s; GMD's stay 5 cm and 0.5 m/s. The result's left
+// ankle, at 10 fps, has heights 0.01, 0.02, 0.03, 0.07, 0.08, 0.04, 0.04 and moves along x by
+// 0.07, 0.12, 0.05, 0.15, 0.05, 0.08 between frames (speeds 0.7, 1.2, 0.5, 1.5, 0.5, 0.8 m/s);
+// the right ankle stays on the floor. Per frame pair (t, t+1):
+//   (0,1) 0.01/0.02 at 0.7: GMD skates (contact, > 0.5); scale-aware not (< 1);
+//   (1,2) 0.02/0.03 at 1.2: both;
+//   (2,3) 0.03/0.07 at 0.5: GMD out of contact; scale-aware in contact but slow: neither;
+//   (3,4) 0.07/0.08 at 1.5: GMD out of contact; scale-aware skates;
+//   (4,5) 0.08/0.04 at 0.5: neither;
+//   (5,6) 0.04/0.04 at 0.8: GMD skates; scale-aware not.
+// 12 (foot, pair) samples: GMD 3/12, scale-aware 2/12. The source is the same motion at half
+// the size (the performer): at its own size GMD's thresholds apply, and it skates 2/12 by both
+// figures, as the scale-aware result does.
+TEST(MetricsTest, SkateThresholdsScaleWithTheCharacter) {
+  const Fixture fixture;
+  const Skeleton big(fixture.skeleton.names(), fixture.skeleton.parents(),
+                     {Vector3d(0, 0, 2), Vector3d(0.2, 0, -1), Vector3d(0, 0, -0.8), Vector3d(-0.2, 0, -1), Vector3d(0, 0, -0.8)});
+  const RetargetRig rig = build_retarget_rig(fixture.rest_clip, fixture.map, big, fixture.map);
+  ASSERT_NEAR(rig.scale, 2.0, 1e-12);
+  const std::vector<double> heights = {0.01, 0.02, 0.03, 0.07, 0.08, 0.04, 0.04};
+  const std::vector<double> steps = {0.07, 0.12, 0.05, 0.15, 0.05, 0.08};
+  std::vector<std::vector<Vector3d>> result_frames, source_frames;
+  double x = 0;
+  for (std::size_t f = 0; f < heights.size(); ++f) {
+    if (f > 0) x += steps[f - 1];
+    const std::vector<Vector3d> frame = {Vector3d(x, 0, 2), Vector3d(0.2 + x, 0, 1), Vector3d(0.2 + x, 0, heights[f]),
+                                         Vector3d(-0.2, 0, 1), Vector3d(-0.2, 0, 0)};
+    result_frames.push_back(frame);
+    std::vector<Vector3d> half;
+    for (const Vector3d& p : frame) half.push_back(0.5 * p);
+    source_frames.push_back(half);
+  }
+  const Clip result = placed(result_frames, 10);
+  const Clip source = placed(source_frames, 10);
+  FootContacts contacts;
+  contacts.planted = {std::vector<std::uint8_t>(7, 0), std::vector<std::uint8_t>(7, 1)};
+  const RetargetMetrics scaled = result_metrics(rig, source, ankles_on_floor(), result, ankles_on_floor(), contacts);
+  EXPECT_DOUBLE_EQ(scaled.foot_skate_ratio, 2.0 / 12.0);
+  EXPECT_DOUBLE_EQ(scaled.foot_skate_ratio_gmd, 3.0 / 12.0);
+  const RetargetMetrics performer = source_metrics(rig, source, ankles_on_floor(), contacts);
+  EXPECT_DOUBLE_EQ(performer.foot_skate_ratio, 2.0 / 12.0);
+  EXPECT_DOUBLE_EQ(performer.foot_skate_ratio_gmd, 2.0 / 12.0);
+  // At s = 1 the two figures are one (the hand-made clip above: 1/8 both).
+  const RetargetMetrics same = result_metrics(fixture.rig, result, ankles_on_floor(), result, ankles_on_floor(), contacts);
+  EXPECT_DOUBLE_EQ(same.foot_skate_ratio, same.foot_skate_ratio_gmd);
 }
 
 TEST(MetricsTest, RejectsClipsOfTheWrongLength) {
