@@ -36,9 +36,12 @@ void print_joints(const std::vector<std::string>& names, const std::vector<int>&
   }
 }
 
-void inspect_bvh(const std::string& path, double metres_per_unit) {
-  const Clip clip = io::load_bvh(path, io::BvhOptions{metres_per_unit});
-  std::printf("file: %s\nkind: BVH motion (converted to Z up, %.6g m per unit)\n", path.c_str(), metres_per_unit);
+void inspect_bvh(const std::string& path, std::optional<double> metres_per_unit) {
+  const io::LoadedBvh loaded = io::load_bvh_inferring_frame(path, metres_per_unit);
+  const Clip& clip = loaded.clip;
+  std::printf("file: %s\nkind: BVH motion (converted to Z up, %.6g m per unit)\n", path.c_str(), loaded.frame.metres_per_unit);
+  std::printf("units: %s\n", loaded.frame.description().c_str());
+  if (!loaded.frame.plausible) std::fprintf(stderr, "warning: %s\n", loaded.frame.warning(path).c_str());
   std::printf("frames: %d\nfps: %.6g\nduration: %.3f s\n", clip.frame_count(), clip.fps, clip.duration());
   std::printf("joints with animated translation:");
   for (int joint : clip.translated_joints) std::printf(" %s", clip.skeleton.name(joint).c_str());

@@ -49,7 +49,10 @@ int run_pose(const std::vector<std::string>& arguments) {
   }
 
   if (io::detect_motion_file(motion_path) == io::MotionFileKind::Bvh) {
-    Clip clip = io::load_bvh(motion_path, io::BvhOptions{bvh_metres_per_unit(args)});
+    io::LoadedBvh loaded = io::load_bvh_inferring_frame(motion_path, bvh_metres_per_unit(args));
+    std::printf("units: %s\n", loaded.frame.description().c_str());
+    if (!loaded.frame.plausible) std::fprintf(stderr, "warning: %s\n", loaded.frame.warning(motion_path).c_str());
+    Clip clip = std::move(loaded.clip);
     if (fps) clip = clip.resampled(*fps);
     io::export_clip_joints(clip, out_path);
     std::printf("wrote %s: %d frames at %.6g fps, %d joints\n", out_path.c_str(), clip.frame_count(), clip.fps,

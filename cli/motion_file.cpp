@@ -5,14 +5,15 @@
 namespace odyssey::cli {
 
 void add_bvh_units_option(Args& args) {
-  args.option("bvh-units", "UNITS", std::string("BVH length unit: ") + io::kBvhUnitsHelp, "cm");
+  args.option("bvh-units", "UNITS", std::string("BVH length unit: ") + io::kBvhUnitsHelp, "auto");
 }
 
-double bvh_metres_per_unit(const Args& args) {
+std::optional<double> bvh_metres_per_unit(const Args& args) {
   const std::string units = args.get("bvh-units");
+  if (units == "auto") return std::nullopt;
   const std::optional<double> value = io::parse_bvh_units(units);
-  if (!value) throw UsageError("--bvh-units expects cmu, cm, mm, m, in or a positive number, got '" + units + "'");
-  return *value;
+  if (!value) throw UsageError("--bvh-units expects auto, cmu, m, dm, cm, mm, in, ft or a positive number, got '" + units + "'");
+  return value;
 }
 
 void add_betas_option(Args& args) {

@@ -173,7 +173,7 @@ scene::RetargetRequest retarget_request_from(const Args& args) {
   } else {
     throw UsageError("--source-rest expects rest or first-frame, got '" + source_rest + "'");
   }
-  if (args.has("bvh-units")) request.bvh_metres_per_unit = bvh_metres_per_unit(args);
+  request.bvh_metres_per_unit = bvh_metres_per_unit(args);
   const bool bvh = std::filesystem::path(request.motion_path).extension() == ".bvh";
   if (request.model_path && bvh) throw UsageError("--model is for AMASS sequences; " + request.motion_path + " is a BVH file");
   if (args.has("betas") && bvh) throw UsageError("--betas is for AMASS sequences; " + request.motion_path + " is a BVH file");
@@ -192,7 +192,7 @@ void print_progress(const scene::ProgressEvent& event) {
     return;
   }
   static const std::pair<const char*, const char*> kLabels[] = {
-      {"load_motion", "motion"}, {"load_character", "character"}, {"bone_maps", "maps"}};
+      {"load_motion", "motion"}, {"bvh_units", "units"}, {"load_character", "character"}, {"bone_maps", "maps"}};
   const char* label = event.stage.c_str();
   for (const auto& [stage, name] : kLabels) {
     if (event.stage == stage) label = name;

@@ -32,6 +32,8 @@ std::string read_whole_file(const std::string& path) {
   return text;
 }
 
+Eigen::Matrix3d bvh_basis(BvhUp up) { return up == BvhUp::y ? y_up_to_z_up() : Eigen::Matrix3d::Identity(); }
+
 bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f'; }
 bool is_line_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
@@ -83,11 +85,11 @@ class BvhParser {
     if (text_.substr(0, 3) == "\xEF\xBB\xBF") position_ = 3;
   }
 
-  Clip parse(double metres_per_unit) {
+  Clip parse(double metres_per_unit, const Eigen::Matrix3d& basis) {
     parse_hierarchy();
     const auto [frame_count, frame_time, frame_time_token] = parse_motion_header();
-    Clip clip = make_clip(metres_per_unit, frame_rate(frame_time, frame_time_token));
-    parse_frames(frame_count, metres_per_unit, clip);
+    Clip clip = make_clip(metres_per_unit, basis, frame_rate(frame_time, frame_time_token));
+    parse_frames(frame_count, metres_per_unit, basis, clip);
     try {
       clip.validate();
     } catch (const std::invalid_argument& error) {
@@ -311,8 +313,7 @@ class BvhParser {
     return fps;
   }
 
-  Clip make_clip(double metres_per_unit, double fps) const {
-    const Eigen::Matrix3d c = y_up_to_z_up();
+  Clip make_clip(double metres_per_unit, const Eigen::Matrix3d& c, double fps) const {
     std::vector<std::string> names;
     std::vector<int> parents;
     std::vector<Eigen::Vector3d> offsets;
@@ -356,7 +357,7 @@ class BvhParser {
   // One line of numbers a frame. Blank lines between frames are skipped; a frame line with fewer
   // or more numbers than channels, fewer frame lines than declared, or anything after the last
   // declared frame is an error.
-  void parse_frames(int frame_count, double metres_per_unit, Clip& clip) {
+  void parse_frames(int frame_count, double metres_per_unit, const Eigen::Matrix3d& c, Clip& clip) {
     const std::size_t channels = static_cast<std::size_t>(channel_count_);
     const std::size_t joints = joints_.size();
     const char* p = text_.data() + position_;
@@ -381,7 +382,6 @@ class BvhParser {
 
     // A rotation of angle theta about BVH axis a is, conjugated by C, the rotation of theta about
     // C a: q = (cos(theta/2), sin(theta/2) C a).
-    const Eigen::Matrix3d c = y_up_to_z_up();
     const double half_radians_per_degree = std::numbers::pi / 360.0;
     std::vector<double> values(channels);
     int frame = 0;
@@ -468,8 +468,135 @@ Clip load_bvh(const std::string& path, const BvhOptions& options) {
   }
   return naming_out_of_memory(path, [&] {
     const std::string text = read_whole_file(path);
-    return BvhParser(path, text).parse(options.metres_per_unit);
+    return BvhParser(path, text).parse(options.metres_per_unit, bvh_basis(options.up));
   });
+}
+
+namespace {
+
+// A human's head-joint-to-sole span, and the heights taken as a human's (see bvh.h).
+constexpr double kTypicalHeight = 1.6, kLowestHeight = 1.0, kHighestHeight = 2.2;
+
+struct Stance {
+  double height = 0;  // file units, along `up`
+  BvhUp up = BvhUp::y;
+  bool upright = false;
+};
+
+// `positions` are in the raw clip's world: C p with p in the file's axes, so the file's Y is z
+// and the file's Z is -y.
+Stance stance_of(const std::vector<Eigen::Vector3d>& positions) {
+  Eigen::AlignedBox3d box;
+  for (const Eigen::Vector3d& p : positions) box.extend(p);
+  Stance stance;
+  if (box.isEmpty()) return stance;
+  const Eigen::Vector3d spread = box.sizes();
+  stance.up = spread.y() > 1.5 * spread.z() ? BvhUp::z : BvhUp::y;
+  stance.height = stance.up == BvhUp::z ? spread.y() : spread.z();
+  const double diagonal = spread.norm();
+  stance.upright = diagonal > 0 && stance.height >= 0.25 * diagonal;
+  return stance;
+}
+
+std::string number_text(double value, int digits) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%.*g", digits, value);
+  return text;
+}
+
+}  // namespace
+
+std::string BvhFrameGuess::description() const {
+  std::string text = unit + " (" + number_text(metres_per_unit, 6) + " m per unit, " + (unit_inferred ? "inferred: " : "as given: ");
+  if (measured_on.empty()) {
+    text += "no pose stands up to measure";
+  } else {
+    text += number_text(height_units, 4) + " units tall in the " + measured_on + ", " + number_text(height_m(), 3) + " m";
+  }
+  return text + "), " + (up == BvhUp::y ? "Y up" : "Z up");
+}
+
+std::string BvhFrameGuess::warning(const std::string& path) const {
+  if (plausible) return {};
+  if (measured_on.empty()) {
+    return path + ": neither the rest pose nor the first frame stands up, so the BVH unit cannot be inferred; read as " +
+           unit + " (" + number_text(metres_per_unit, 6) + " m per unit): give --bvh-units if that is wrong";
+  }
+  return path + ": the skeleton is " + number_text(height_units, 4) + " units tall in the " + measured_on +
+         ", a human's " + number_text(kLowestHeight, 2) + "-" + number_text(kHighestHeight, 2) + " m in no known unit (" +
+         (unit_inferred ? "nearest: " : "given: ") + unit + ", " + number_text(height_m(), 3) +
+         " m): give --bvh-units if the unit is wrong";
+}
+
+BvhFrameGuess guess_bvh_frame(const Clip& raw, std::optional<double> metres_per_unit) {
+  BvhFrameGuess guess;
+  Stance stance;
+  {
+    std::vector<Eigen::Vector3d> positions;
+    for (const RigidTransform<double>& joint : raw.skeleton.rest_world()) positions.push_back(joint.translation);
+    stance = stance_of(positions);
+    if (stance.upright) guess.measured_on = "rest pose";
+  }
+  if (!stance.upright && raw.frame_count() > 0) {
+    std::vector<RigidTransform<double>> world(raw.joint_count());
+    raw.world_pose(0, world);
+    std::vector<Eigen::Vector3d> positions;
+    for (const RigidTransform<double>& joint : world) positions.push_back(joint.translation);
+    const Stance first = stance_of(positions);
+    if (first.upright) {
+      stance = first;
+      guess.measured_on = "first frame";
+    }
+  }
+  guess.up = stance.upright ? stance.up : BvhUp::y;
+  guess.height_units = stance.height;
+  if (metres_per_unit) {
+    guess.metres_per_unit = *metres_per_unit;
+    guess.unit = number_text(*metres_per_unit, 6);
+    for (const BvhUnit& unit : kBvhUnits) {
+      if (unit.metres == *metres_per_unit) guess.unit = unit.name;
+    }
+  } else if (stance.upright) {
+    guess.unit_inferred = true;
+    double best = std::numeric_limits<double>::infinity();
+    for (const BvhUnit& unit : kBvhUnits) {
+      const double misfit = std::abs(std::log(stance.height * unit.metres / kTypicalHeight));
+      if (misfit < best) {
+        best = misfit;
+        guess.metres_per_unit = unit.metres;
+        guess.unit = unit.name;
+      }
+    }
+  } else {
+    guess.unit_inferred = true;
+    guess.metres_per_unit = 0.01;
+    guess.unit = "cm";
+  }
+  guess.plausible = stance.upright && guess.height_m() >= kLowestHeight && guess.height_m() <= kHighestHeight;
+  return guess;
+}
+
+Clip with_bvh_frame(Clip raw, double metres_per_unit, BvhUp up) {
+  if (!(metres_per_unit > 0) || !std::isfinite(metres_per_unit)) {
+    throw std::invalid_argument("BVH metres_per_unit " + std::to_string(metres_per_unit) + " is not a positive finite number");
+  }
+  // raw holds C_y p (positions) and rotations about C_y a; the wanted frame holds C p and C a,
+  // so every vector is mapped by M = C C_y^T (a signed permutation, a proper rotation) and scaled.
+  const Eigen::Matrix3d m = bvh_basis(up) * y_up_to_z_up().transpose();
+  std::vector<Eigen::Vector3d> offsets;
+  for (const Eigen::Vector3d& offset : raw.skeleton.rest_offsets()) offsets.push_back(metres_per_unit * (m * offset));
+  raw.skeleton = Skeleton(raw.skeleton.names(), raw.skeleton.parents(), std::move(offsets));
+  for (Eigen::Vector3d& translation : raw.translations) translation = metres_per_unit * (m * translation);
+  for (Eigen::Quaterniond& rotation : raw.rotations) rotation.vec() = m * rotation.vec();
+  return raw;
+}
+
+LoadedBvh load_bvh_inferring_frame(const std::string& path, std::optional<double> metres_per_unit) {
+  Clip raw = load_bvh(path, BvhOptions{1.0, BvhUp::y});
+  LoadedBvh loaded;
+  loaded.frame = guess_bvh_frame(raw, metres_per_unit);
+  loaded.clip = with_bvh_frame(std::move(raw), loaded.frame.metres_per_unit, loaded.frame.up);
+  return loaded;
 }
 
 }  // namespace odyssey::io

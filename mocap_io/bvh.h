@@ -41,15 +41,23 @@
 // every joint has a channel needs at most 16 times), else InputError before anything is reserved.
 #pragma once
 
+#include <array>
+#include <optional>
 #include <string>
 
 #include "skeleton/clip.h"
 
 namespace odyssey::io {
 
+// Which BVH axis points up. BVH is Y up by convention; some exporters (MakeHuman) write Z up.
+// Y up is carried into the toolkit's world by C = y_up_to_z_up() as above; Z up (right-handed)
+// is the toolkit's own frame, C = identity.
+enum class BvhUp { y, z };
+
 struct BvhOptions {
   // Length of one BVH unit in metres. 0.01 fits the many exporters that write centimetres.
   double metres_per_unit = 0.01;
+  BvhUp up = BvhUp::y;
 };
 
 // The CMU motion capture database's BVH conversions (cgspeed) keep the ASF length unit, where
@@ -57,8 +65,66 @@ struct BvhOptions {
 // significant digits as 0.056444 m. A subject then stands about 1.7 m tall.
 constexpr double kCmuMetresPerUnit = 0.056444;
 
+// The length units BVH files are written in: metres, decimetres (MakeHuman), centimetres,
+// millimetres, inches, feet, and CMU units.
+struct BvhUnit {
+  const char* name;
+  double metres;
+};
+inline constexpr std::array<BvhUnit, 7> kBvhUnits = {
+    {{"m", 1.0}, {"dm", 0.1}, {"cm", 0.01}, {"mm", 0.001}, {"in", 0.0254}, {"ft", 0.3048}, {"cmu", kCmuMetresPerUnit}}};
+
 // Reads a BVH file. Throws InputError on a bad file (see above) and std::invalid_argument when
 // options.metres_per_unit is not a positive finite number.
 Clip load_bvh(const std::string& path, const BvhOptions& options = {});
+
+// Units and up axis inferred from the skeleton, assuming a human performer.
+//
+// The up axis: a human is far taller than deep, so in the pose measured the BVH axis (Y or Z)
+// along which the joints spread furthest is up, Z only when its spread is more than 1.5 times
+// Y's (a T-pose spreads as far along X, the side axis in both conventions, so X is not a
+// candidate). The height is the joints' spread along that axis, head joint to the lowest foot
+// joint (End Sites are not joints). It is measured in the rest pose, or in the first frame when
+// the rest pose is degenerate (its height is under a quarter of its bounding box's diagonal:
+// every offset zero, or a skeleton lying down). The unit: among kBvhUnits the one that makes
+// the height nearest 1.6 m (a human's head-joint-to-sole span) in ratio, |log(h u / 1.6 m)|.
+// The ranges in which each unit gives 1.0-2.2 m barely overlap (dm 10-22 units, CMU 17.7-39,
+// in 39.4-87, cm 100-220), so the nearest is the only plausible one except between 17.7 and 22
+// units, where dm and CMU both fit and the nearer to 1.6 m wins. When the height is outside
+// 1.0-2.2 m in every unit (not a human, or a child smaller than 1 m) or neither pose stands up,
+// the guess is not plausible and its warning() says so: the nearest unit is still used (or
+// centimetres when nothing could be measured), and an explicit unit is the user's fix.
+struct BvhFrameGuess {
+  double metres_per_unit = 0.01;
+  std::string unit;            // a kBvhUnits name, or the number given
+  bool unit_inferred = false;  // false: the caller gave the unit
+  BvhUp up = BvhUp::y;
+  std::string measured_on;     // "rest pose", "first frame", or empty when neither stands up
+  double height_units = 0;     // the joints' spread along the up axis, in the file's units
+  bool plausible = true;       // the height, in the unit used, is a human's 1.0-2.2 m
+
+  double height_m() const { return height_units * metres_per_unit; }
+  // "cmu (0.056444 m per unit, inferred: 25.5 units tall in the rest pose, 1.44 m), Y up"
+  std::string description() const;
+  // Why the guess is doubtful, naming the file; empty when plausible.
+  std::string warning(const std::string& path) const;
+};
+
+// Infers from `raw`, a clip loaded with metres_per_unit 1 and up Y (the file's numbers as they
+// are); `metres_per_unit`, when given, is used instead of the inferred unit.
+BvhFrameGuess guess_bvh_frame(const Clip& raw, std::optional<double> metres_per_unit = std::nullopt);
+
+// `raw` (loaded as above) in another unit and up axis: what load_bvh gives with those options,
+// offsets and translations bit for bit (C only permutes axes and flips signs), rotations to
+// double rounding. Throws std::invalid_argument for a unit that is not positive and finite.
+Clip with_bvh_frame(Clip raw, double metres_per_unit, BvhUp up);
+
+struct LoadedBvh {
+  Clip clip;
+  BvhFrameGuess frame;
+};
+// Loads a BVH file with the given unit, or the inferred one when none is given, and the inferred
+// up axis. Throws as load_bvh.
+LoadedBvh load_bvh_inferring_frame(const std::string& path, std::optional<double> metres_per_unit = std::nullopt);
 
 }  // namespace odyssey::io

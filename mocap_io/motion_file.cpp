@@ -25,11 +25,9 @@ MotionFileKind detect_motion_file(const std::string& path) {
 }
 
 std::optional<double> parse_bvh_units(std::string_view units) {
-  if (units == "cmu") return kCmuMetresPerUnit;
-  if (units == "cm") return 0.01;
-  if (units == "mm") return 0.001;
-  if (units == "m") return 1.0;
-  if (units == "in") return 0.0254;
+  for (const BvhUnit& unit : kBvhUnits) {
+    if (units == unit.name) return unit.metres;
+  }
   double value = 0;
   const auto [end, error] = std::from_chars(units.data(), units.data() + units.size(), value);
   if (error != std::errc() || end != units.data() + units.size() || !(value > 0) || !std::isfinite(value)) return std::nullopt;

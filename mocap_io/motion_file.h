@@ -13,9 +13,12 @@ enum class MotionFileKind { Bvh, Amass, BodyModel, Npz, Npy };
 // Throws InputError when the file does not exist or is of no supported kind.
 MotionFileKind detect_motion_file(const std::string& path);
 
-// Metres per BVH unit: "cmu" (0.056444, the CMU conversions), "cm", "mm", "m", "in", or a positive
-// number of metres; empty for anything else.
+// Metres per BVH unit: a name of io::kBvhUnits ("cmu" 0.056444, the CMU conversions; "m", "dm",
+// "cm", "mm", "in", "ft") or a positive number of metres; empty for anything else ("auto" too:
+// callers that infer the unit, see io::guess_bvh_frame, handle it before).
 std::optional<double> parse_bvh_units(std::string_view units);
-inline constexpr const char* kBvhUnitsHelp = "cmu (0.056444 m, the CMU conversions), cm, mm, m, in, or metres per unit";
+inline constexpr const char* kBvhUnitsHelp =
+    "auto (inferred from the skeleton's height, assuming a human performer), cmu (0.056444 m, the CMU conversions), "
+    "m, dm, cm, mm, in, ft, or metres per unit";
 
 }  // namespace odyssey::io

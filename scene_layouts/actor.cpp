@@ -31,6 +31,7 @@ struct Motion {
   Clip clip;
   std::string description, format, body_model;
   std::optional<BetasFit> betas;  // AMASS
+  std::optional<io::BvhFrameGuess> bvh_frame;  // BVH
 };
 
 Motion load_motion(const RetargetRequest& request, LoadCache* cache) {
@@ -39,7 +40,9 @@ Motion load_motion(const RetargetRequest& request, LoadCache* cache) {
   const io::MotionFileKind kind = io::detect_motion_file(path);
   if (kind == io::MotionFileKind::Bvh) {
     if (request.model_path) throw io::InputError(path, "a body model is for AMASS sequences; this is a BVH file");
-    motion.clip = io::load_bvh(path, io::BvhOptions{request.bvh_metres_per_unit.value_or(0.01)});
+    io::LoadedBvh bvh = io::load_bvh_inferring_frame(path, request.bvh_metres_per_unit);
+    motion.clip = std::move(bvh.clip);
+    motion.bvh_frame = bvh.frame;
     motion.format = "bvh";
     motion.description = "BVH";
   } else if (kind == io::MotionFileKind::Amass) {
@@ -163,11 +166,16 @@ RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCal
   actor.motion_description = motion.description;
   actor.body_model = motion.body_model;
   actor.betas = motion.betas;
+  actor.bvh_frame = motion.bvh_frame;
   actor.seconds.load_motion = seconds_since(start);
   char line[512];
   std::snprintf(line, sizeof line, "%s: %s, resampled to %d frames at %.6g fps", request.motion_path.c_str(),
                 motion.description.c_str(), actor.source.frame_count(), actor.source.fps);
   report("load_motion", line);
+  if (actor.bvh_frame) {
+    report("bvh_units", actor.bvh_frame->description());
+    if (!actor.bvh_frame->plausible) report("warning", actor.bvh_frame->warning(request.motion_path));
+  }
   if (actor.betas) {
     report("betas", actor.betas->summary());
     if (actor.betas->dropped > 0) report("warning", request.motion_path + ": " + actor.betas->warning());
@@ -213,7 +221,18 @@ nlohmann::ordered_json actor_report_json(const RetargetedActor& actor) {
                     {"motion_format", actor.motion_format},
                     {"motion_fps", actor.source_fps},
                     {"character", request.character_path}};
-  if (actor.motion_format == "bvh") json["inputs"]["bvh_metres_per_unit"] = request.bvh_metres_per_unit.value_or(0.01);
+  if (actor.bvh_frame) {
+    const io::BvhFrameGuess& frame = *actor.bvh_frame;
+    json["inputs"]["bvh_metres_per_unit"] = frame.metres_per_unit;
+    json["inputs"]["bvh_units"] = {{"unit", frame.unit},
+                                   {"inferred", frame.unit_inferred},
+                                   {"up", frame.up == io::BvhUp::y ? "y" : "z"},
+                                   {"measured_on", frame.measured_on},
+                                   {"height_units", frame.height_units},
+                                   {"height_m", frame.height_m()},
+                                   {"plausible", frame.plausible},
+                                   {"description", frame.description()}};
+  }
   if (actor.motion_format == "amass") json["inputs"]["body_model"] = actor.body_model;
   if (actor.betas) {
     const BetasFit& betas = *actor.betas;

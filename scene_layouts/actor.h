@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "mocap_io/bvh.h"
 #include "retarget/bone_map.h"
 #include "retarget/parts.h"
 #include "retarget/refine.h"
@@ -35,7 +36,7 @@ struct RetargetRequest {
   retarget::Quality quality = retarget::Quality::fast;
   retarget::Parts parts = retarget::Parts::body;
   double fps = 30;                                        // the motion is resampled to this rate
-  std::optional<double> bvh_metres_per_unit;              // BVH: empty means centimetres; an AMASS motion refuses one
+  std::optional<double> bvh_metres_per_unit;              // BVH: empty infers it (io::guess_bvh_frame); AMASS refuses one
   retarget::RetargetOptions options;
   retarget::RefineOptions refine_options;                 // for balanced and accurate: options.quality == quality
 };
@@ -52,6 +53,7 @@ struct RetargetedActor {
   std::string motion_description;  // "BVH, 31 joints, 344 frames at 120 fps"
   std::string body_model;     // AMASS: the model file, or the synthetic body's description
   std::optional<BetasFit> betas;  // AMASS: what request.betas did to the sequence's betas
+  std::optional<io::BvhFrameGuess> bvh_frame;  // BVH: the unit and up axis used, and how they were found
   Character character;
   retarget::BoneMap full_source_map, full_target_map;  // before `parts`
   retarget::BoneMap source_map, target_map;            // used

@@ -60,7 +60,7 @@ SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& 
   }
   if (const auto value = item.find("map")) r.map_path = resolve(*value, base);
   if (const auto value = item.find("source_map")) r.source_map_path = resolve(*value, base);
-  if (const auto value = item.find("bvh_units")) {
+  if (const auto value = item.find("bvh_units"); value && !(value->is_string() && value->string() == "auto")) {
     r.bvh_metres_per_unit = value->is_number() ? std::optional<double>(value->number()) : io::parse_bvh_units(value->string());
     if (!r.bvh_metres_per_unit || !(*r.bvh_metres_per_unit > 0)) value->fail(std::string("expected ") + io::kBvhUnitsHelp);
   }

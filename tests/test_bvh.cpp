@@ -523,5 +523,159 @@ TEST(BvhTest, DeepNestingNeitherRecursesNorFails) {
   EXPECT_NEAR(world_positions(clip, 0).back().z(), 0.01 * (kDepth + 1), 1e-9);
 }
 
+// --- Units and up axis inferred from a human's height (bvh.h, guess_bvh_frame). ---
+
+// A stick figure: Hips with two legs (Leg, Foot) hanging `leg` below it and a spine (Spine,
+// Head) rising `torso` above it, plus an arm sideways; along Y (up = 'y') or Z. Its joints span
+// leg + torso along the up axis. Every joint has three rotation channels, Hips also three
+// position channels: 27 numbers a frame.
+std::string stick_figure(double leg, double torso, char up, const std::string& frame = "") {
+  const auto along = [&](double x, double length) {
+    std::ostringstream text;
+    text << x << " " << (up == 'y' ? length : 0.0) << " " << (up == 'z' ? length : 0.0);
+    return text.str();
+  };
+  std::ostringstream bvh;
+  bvh << "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n";
+  for (const char* side : {"Left", "Right"}) {
+    const double x = side[0] == 'L' ? 0.1 * torso : -0.1 * torso;
+    bvh << " JOINT " << side << "Leg\n {\n  OFFSET " << along(x, -0.5 * leg) << "\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+        << "  JOINT " << side << "Foot\n  {\n   OFFSET " << along(0, -0.5 * leg) << "\n   CHANNELS 3 Zrotation Xrotation Yrotation\n"
+        << "   End Site\n   {\n    OFFSET 0 0 1\n   }\n  }\n }\n";
+  }
+  bvh << " JOINT Spine\n {\n  OFFSET " << along(0, 0.6 * torso) << "\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      << "  JOINT Head\n  {\n   OFFSET " << along(0, 0.4 * torso) << "\n   CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      << "   End Site\n   {\n    OFFSET 0 1 0\n   }\n  }\n"
+      << "  JOINT LeftArm\n  {\n   OFFSET " << along(0.4 * torso, 0.3 * torso) << "\n   CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      << "   End Site\n   {\n    OFFSET 1 0 0\n   }\n  }\n }\n}\n";
+  bvh << "MOTION\nFrames: 1\nFrame Time: 0.033333\n" << (frame.empty() ? "0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0" : frame) << "\n";
+  return bvh.str();
+}
+
+TEST(BvhUnitsTest, EachKnownUnitIsInferredFromAHumanHeight) {
+  // 1.7 m from sole to head joint, written in each unit: the unit that makes it 1.0-2.2 m.
+  for (const BvhUnit& unit : kBvhUnits) {
+    const double height = 1.7 / unit.metres;
+    const std::string path = write_scratch(std::string("stick_") + unit.name + ".bvh", stick_figure(0.5 * height, 0.5 * height, 'y'));
+    const LoadedBvh loaded = load_bvh_inferring_frame(path);
+    EXPECT_EQ(loaded.frame.unit, unit.name);
+    EXPECT_EQ(loaded.frame.metres_per_unit, unit.metres) << unit.name;
+    EXPECT_TRUE(loaded.frame.unit_inferred);
+    EXPECT_TRUE(loaded.frame.plausible) << unit.name;
+    EXPECT_EQ(loaded.frame.up, BvhUp::y);
+    EXPECT_EQ(loaded.frame.measured_on, "rest pose");
+    // The file writes six significant digits.
+    EXPECT_NEAR(loaded.frame.height_units, height, 1e-5 * height) << unit.name;
+    EXPECT_NEAR(loaded.frame.height_m(), 1.7, 1e-5) << unit.name;
+    EXPECT_TRUE(loaded.frame.warning(path).empty());
+    // The clip is the one load_bvh gives with that unit.
+    const Clip direct = load_bvh(path, {unit.metres});
+    EXPECT_EQ(loaded.clip.skeleton.rest_offsets(), direct.skeleton.rest_offsets()) << unit.name;
+  }
+}
+
+TEST(BvhUnitsTest, SharedFilesGetTheirUnits) {
+  for (const std::string& path : {kWalk, kJump}) {
+    const LoadedBvh cmu = load_bvh_inferring_frame(path);
+    EXPECT_EQ(cmu.frame.unit, "cmu") << path;
+    EXPECT_EQ(cmu.frame.up, BvhUp::y);
+    // About 23.6 units from toe to head joint in the CMU rest pose (legs splayed): 1.33 m.
+    EXPECT_GT(cmu.frame.height_units, 22.0);
+    EXPECT_LT(cmu.frame.height_units, 25.0);
+    EXPECT_TRUE(cmu.frame.description().starts_with("cmu (0.056444 m per unit, inferred: ")) << cmu.frame.description();
+  }
+  // Inferring gives load_bvh's clip with the CMU unit: offsets and translations bit for bit.
+  const Clip direct = load_bvh(kWalk, {kCmuMetresPerUnit});
+  const Clip inferred = load_bvh_inferring_frame(kWalk).clip;
+  EXPECT_EQ(inferred.skeleton.rest_offsets(), direct.skeleton.rest_offsets());
+  EXPECT_EQ(inferred.translations, direct.translations);
+  ASSERT_EQ(inferred.rotations.size(), direct.rotations.size());
+  for (std::size_t k = 0; k < direct.rotations.size(); ++k) {
+    ASSERT_LT((inferred.rotations[k].coeffs() - direct.rotations[k].coeffs()).norm(), 1e-15) << k;
+  }
+  // MakeHuman writes decimetres, Z up: 16.4 units from toe to head joint.
+  for (const char* file : {"makehuman_walk1.bvh", "makehuman_zombie_walk1.bvh"}) {
+    const std::string path = std::string(ODYSSEY_SHARED_DIR) + "/assets/mocap/" + file;
+    const LoadedBvh makehuman = load_bvh_inferring_frame(path);
+    EXPECT_EQ(makehuman.frame.unit, "dm") << file;
+    EXPECT_EQ(makehuman.frame.up, BvhUp::z) << file;
+    EXPECT_TRUE(makehuman.frame.plausible) << file;
+    // Read Z up, the head stands 1.5-1.7 m above the toes in the toolkit's +z.
+    const auto rest = makehuman.clip.skeleton.rest_world();
+    const double head = rest[makehuman.clip.skeleton.find("Head")].translation.z();
+    const double toe = rest[makehuman.clip.skeleton.find("Toe_L")].translation.z();
+    EXPECT_GT(head - toe, 1.4) << file;
+    EXPECT_LT(head - toe, 1.7) << file;
+  }
+}
+
+TEST(BvhUnitsTest, ZUpFilesAreReadWithoutTheYUpTurn) {
+  // 170 cm tall along the file's Z: read as it stands, p' = s p.
+  const std::string path = write_scratch("stick_z_up.bvh", stick_figure(85, 85, 'z'));
+  const LoadedBvh loaded = load_bvh_inferring_frame(path);
+  EXPECT_EQ(loaded.frame.up, BvhUp::z);
+  EXPECT_EQ(loaded.frame.unit, "cm");
+  const auto rest = loaded.clip.skeleton.rest_world();
+  expect_near(rest[loaded.clip.skeleton.find("Head")].translation, Vector3d(0, 0, 0.85), 1e-12, "head");
+  expect_near(rest[loaded.clip.skeleton.find("LeftArm")].translation, Vector3d(0.34, 0, 0.765), 1e-12, "arm");
+  // A rotation about the file's Z is one about the toolkit's Z, unlike a Y-up file's.
+  const std::string turned = write_scratch("stick_z_up_turned.bvh",
+      stick_figure(85, 85, 'z', "0 0 0 90 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0"));
+  const Clip clip = load_bvh_inferring_frame(turned).clip;
+  // Hips turned 90 degrees about +z: the arm at (34, 0, 76.5) cm goes to (0, 34, 76.5) cm.
+  expect_near(world_positions(clip, 0)[clip.skeleton.find("LeftArm")], Vector3d(0, 0.34, 0.765), 1e-12, "turned arm");
+}
+
+TEST(BvhUnitsTest, ADegenerateRestPoseIsMeasuredOnTheFirstFrame) {
+  // Every offset zero (a rest pose of one point); the first frame places the joints through
+  // position channels, 1700 mm from feet to head.
+  std::string bvh = "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Zposition\n";
+  for (const char* joint : {"LeftFoot", "Head"}) {
+    bvh += std::string(" JOINT ") + joint + "\n {\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Zposition\n"
+           "  End Site\n  {\n   OFFSET 0 0 0\n  }\n }\n";
+  }
+  bvh += "}\nMOTION\nFrames: 1\nFrame Time: 0.01\n0 900 0 100 -900 0 0 800 0\n";
+  const std::string path = write_scratch("degenerate_rest.bvh", bvh);
+  const LoadedBvh loaded = load_bvh_inferring_frame(path);
+  EXPECT_EQ(loaded.frame.measured_on, "first frame");
+  EXPECT_NEAR(loaded.frame.height_units, 1700, 1e-9);
+  EXPECT_EQ(loaded.frame.unit, "mm");
+  EXPECT_TRUE(loaded.frame.plausible);
+
+  // Nothing stands up in either pose: centimetres, with a warning that says so.
+  std::string flat = bvh;
+  flat.replace(flat.rfind('\n', flat.size() - 2) + 1, std::string::npos, "0 0 0 0 0 0 0 0 0\n");
+  const std::string flat_path = write_scratch("flat.bvh", flat);
+  const LoadedBvh nothing = load_bvh_inferring_frame(flat_path);
+  EXPECT_EQ(nothing.frame.measured_on, "");
+  EXPECT_EQ(nothing.frame.unit, "cm");
+  EXPECT_FALSE(nothing.frame.plausible);
+  EXPECT_EQ(nothing.frame.warning(flat_path), flat_path + ": neither the rest pose nor the first frame stands up, so the BVH "
+                                                          "unit cannot be inferred; read as cm (0.01 m per unit): give "
+                                                          "--bvh-units if that is wrong");
+}
+
+TEST(BvhUnitsTest, NoHumanHeightWarnsAndAnExplicitUnitWins) {
+  // 0.3 units tall: 0.3 m in metres, the nearest to 1.6 m of any unit, but no human.
+  const std::string path = write_scratch("tiny.bvh", stick_figure(0.15, 0.15, 'y'));
+  const LoadedBvh tiny = load_bvh_inferring_frame(path);
+  EXPECT_EQ(tiny.frame.unit, "m");
+  EXPECT_FALSE(tiny.frame.plausible);
+  EXPECT_EQ(tiny.frame.warning(path), path + ": the skeleton is 0.3 units tall in the rest pose, a human's 1-2.2 m in no "
+                                             "known unit (nearest: m, 0.3 m): give --bvh-units if the unit is wrong");
+  // The CMU walk read as centimetres because the user says so: the unit given is used, and the
+  // 0.24 m performer is still pointed out.
+  const LoadedBvh given = load_bvh_inferring_frame(kWalk, 0.01);
+  EXPECT_EQ(given.frame.unit, "cm");
+  EXPECT_FALSE(given.frame.unit_inferred);
+  EXPECT_EQ(given.frame.metres_per_unit, 0.01);
+  EXPECT_FALSE(given.frame.plausible);
+  EXPECT_EQ(given.clip.skeleton.rest_offsets(), load_bvh(kWalk, {0.01}).skeleton.rest_offsets());
+  const LoadedBvh number = load_bvh_inferring_frame(kWalk, 0.05);
+  EXPECT_EQ(number.frame.unit, "0.05");
+  EXPECT_TRUE(number.frame.plausible);  // 23.6 x 0.05 = 1.18 m
+  EXPECT_THROW(with_bvh_frame(given.clip, -1, BvhUp::y), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace odyssey::io

@@ -71,7 +71,7 @@ void expect_no_output_named(const std::string& stem) {
 }
 
 // The character's motion as `odyssey retarget --motion bvh --character c --quality q` makes it
-// (default options: BVH in cm, 30 fps, parts body, rest alignment).
+// (default options: BVH units and up axis inferred, 30 fps, parts body, rest alignment).
 struct Retargeted {
   Character character;
   retarget::BoneMap target_map;
@@ -80,7 +80,7 @@ struct Retargeted {
 
 Retargeted retarget_like_the_cli(const std::string& bvh, const std::string& character_path, retarget::Quality quality) {
   Retargeted out;
-  const Clip source = io::load_bvh(bvh, io::BvhOptions{0.01}).resampled(30);
+  const Clip source = io::load_bvh_inferring_frame(bvh).clip.resampled(30);
   out.character = io::load_character(character_path);
   const retarget::BoneMap source_map =
       retarget::restrict_bone_map(retarget::humanoid_bone_map(source.skeleton, bvh, ""), retarget::Parts::body);
