@@ -138,7 +138,7 @@ void inspect_character(const std::string& path) {
   std::string map_problem;
   std::optional<retarget::BoneMap> humanoid;
   try {
-    humanoid = retarget::humanoid_bone_map(rig, path);
+    humanoid = retarget::humanoid_bone_map(character, path);
   } catch (const std::exception& error) {
     map_problem = error.what();
   }

@@ -303,6 +303,7 @@ class CharacterReader {
     Character character;
     character.name = std::filesystem::path(path_).stem().string();
     build_skeleton(character);
+    read_declared_humanoid(character);
     for (std::size_t skin = 0; skin < model_.skins.size(); ++skin) bindings_.push_back(bind_skin(int(skin)));
     for (int node = 0; node < node_count(); ++node) {
       if (in_scene_[node] && model_.nodes[node].mesh >= 0) add_node_meshes(node, character);
@@ -353,6 +354,58 @@ class CharacterReader {
 
  private:
   [[noreturn]] void fail(const std::string& problem) const { throw InputError(path_, problem); }
+
+  // VRM avatars declare their humanoid bones: VRM 0.x as extensions.VRM.humanoid.humanBones, an
+  // array of {"bone": name, "node": index}; VRM 1.0 as extensions.VRMC_vrm.humanoid.humanBones,
+  // an object name -> {"node": index}. A malformed list (wrong types, a node index outside the
+  // file, a bone named twice) is an error naming its JSON path; a bone on a node that is not a
+  // joint of the skeleton (nothing skinned below it) is skipped with a warning.
+  void read_declared_humanoid(Character& character) {
+    std::vector<std::pair<std::string, const tinygltf::Value*>> bones;  // name, the value holding "node"
+    std::string where;
+    const auto member = [&](const tinygltf::Value& object, const char* key, const std::string& path) -> const tinygltf::Value& {
+      if (!object.IsObject() || !object.Has(key)) fail(path + " has no '" + key + "'");
+      return object.Get(key);
+    };
+    if (const auto vrm1 = model_.extensions.find("VRMC_vrm"); vrm1 != model_.extensions.end()) {
+      where = "extensions.VRMC_vrm.humanoid.humanBones";
+      character.declared_humanoid_convention = "VRM 1.0";
+      const tinygltf::Value& list = member(member(vrm1->second, "humanoid", "extensions.VRMC_vrm"), "humanBones",
+                                           "extensions.VRMC_vrm.humanoid");
+      if (!list.IsObject()) fail(where + " is not an object");
+      for (const std::string& name : list.Keys()) bones.emplace_back(name, &list.Get(name));
+    } else if (const auto vrm0 = model_.extensions.find("VRM"); vrm0 != model_.extensions.end()) {
+      where = "extensions.VRM.humanoid.humanBones";
+      character.declared_humanoid_convention = "VRM 0.x";
+      const tinygltf::Value& list = member(member(vrm0->second, "humanoid", "extensions.VRM"), "humanBones",
+                                           "extensions.VRM.humanoid");
+      if (!list.IsArray()) fail(where + " is not an array");
+      for (std::size_t k = 0; k < list.ArrayLen(); ++k) {
+        const tinygltf::Value& entry = list.Get(static_cast<int>(k));
+        const tinygltf::Value& bone = member(entry, "bone", where + "[" + std::to_string(k) + "]");
+        if (!bone.IsString()) fail(where + "[" + std::to_string(k) + "].bone is not a string");
+        bones.emplace_back(bone.Get<std::string>(), &entry);
+      }
+    } else {
+      return;
+    }
+    for (const auto& [name, holder] : bones) {
+      const std::string path = where + (holder->IsObject() && holder->Has("bone") ? "[bone '" + name + "']" : "." + name);
+      const tinygltf::Value& node = member(*holder, "node", path);
+      if (!node.IsInt()) fail(path + ".node is not an integer");
+      const int index = node.GetNumberAsInt();
+      check_index(index, model_.nodes.size(), path, "node");
+      for (const Character::DeclaredBone& earlier : character.declared_humanoid) {
+        if (earlier.bone == name) fail(where + " names bone '" + name + "' twice");
+      }
+      if (joint_of_node_[index] < 0) {
+        warnings_.push_back(where + ": bone '" + name + "' is on " + node_label(index) +
+                            ", which is not a joint of the skeleton; it is left out");
+        continue;
+      }
+      character.declared_humanoid.push_back({name, joint_of_node_[index]});
+    }
+  }
 
   int node_count() const { return static_cast<int>(model_.nodes.size()); }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <filesystem>
 #include <optional>
 #include <string_view>
@@ -27,6 +28,7 @@ struct ParsedName {
   std::vector<std::string> words;  // lower case, side markers and rig prefixes removed
   int number = -1;                 // the first number after the first word, -1 when none
   bool end_marker = false;         // HeadTop_End, LeftToe_End, Bip01 L Toe0Nub, ...
+  bool underscored = false;        // starts with '_': a helper (MakeHuman's __UpLeg_L above UpLeg_L)
 };
 
 bool is_upper(char c) { return std::isupper(static_cast<unsigned char>(c)) != 0; }
@@ -71,6 +73,7 @@ ParsedName parse_joint_name(std::string_view name) {
                                                              "bone", "smplhf"};
   static const std::vector<std::string_view> kEndMarkers = {"end", "nub", "tip", "site"};
   ParsedName parsed;
+  parsed.underscored = name.starts_with('_');
   const auto set_side = [&](Side side) {
     if (parsed.side == Side::none) parsed.side = side;
   };
@@ -152,6 +155,8 @@ int sided(int left_canonical, Side side) {
 struct Candidate {
   int joint;
   int rank;
+  bool underscored = false;  // ParsedName::underscored
+  int number = 0;            // ParsedName::number, 0 when none
 };
 
 // A prefix every joint name shares, up to and including a separator ("Character1_" in
@@ -185,7 +190,7 @@ std::vector<std::vector<Candidate>> name_candidates(const Skeleton& rig) {
       if (number < 1 || number > 3) continue;
       const std::string name = std::string(parsed.side == Side::left ? "left_" : "right_") + std::string(*finger) +
                                std::to_string(number);
-      by_canonical[canonical_index(name)].push_back({j, parsed.number < 0 ? 1 : 0});
+      by_canonical[canonical_index(name)].push_back({j, parsed.number < 0 ? 1 : 0, parsed.underscored, 0});
       continue;
     }
     std::string key;
@@ -193,7 +198,7 @@ std::vector<std::vector<Candidate>> name_candidates(const Skeleton& rig) {
     for (const Synonym& synonym : synonyms()) {
       if (synonym.key != key || synonym.sided != (parsed.side != Side::none)) continue;
       const int canonical = synonym.sided ? sided(synonym.left_canonical, parsed.side) : synonym.left_canonical;
-      by_canonical[canonical].push_back({j, synonym.rank});
+      by_canonical[canonical].push_back({j, synonym.rank, parsed.underscored, std::max(parsed.number, 0)});
     }
   }
   return by_canonical;
@@ -235,6 +240,48 @@ std::vector<int> claim_order() {
   return order;
 }
 
+std::vector<std::vector<int>> children_of(const Skeleton& rig) {
+  std::vector<std::vector<int>> children(rig.joint_count());
+  for (int j = 0; j < rig.joint_count(); ++j) {
+    if (rig.parent(j) >= 0) children[rig.parent(j)].push_back(j);
+  }
+  return children;
+}
+
+// A rig that names no head (Rigify's spine.004 .. spine.006 continue the spine into the neck and
+// head): the head is the top of the chain that leaves the chest (or the named neck) and carries
+// no arm, walked while each joint has one child that is not an end marker (a head with face bones
+// has several, a leaf head none); the neck, if unnamed, is the chain's first joint when the chain
+// has two or more. Zero-length helpers are skipped.
+void map_neck_and_head_from_chain(const Skeleton& rig, const std::vector<bool>& helper, BoneMap& map) {
+  using namespace canonical;
+  if (map.mapped(head)) return;
+  const int from = map.mapped(neck) ? map.joints[neck] : map.joints[spine3];
+  if (from < 0) return;
+  const std::vector<std::vector<int>> children = children_of(rig);
+  const auto carries_arm = [&](int j) {
+    for (int c : {left_collar, right_collar, left_shoulder, right_shoulder}) {
+      if (map.mapped(c) && is_ancestor(rig, j, map.joints[c])) return true;
+    }
+    return false;
+  };
+  const auto chain_children = [&](int j) {
+    std::vector<int> next;
+    for (int child : children[j]) {
+      if (map.canonical_of(child) < 0 && !parse_joint_name(rig.name(child)).end_marker && !carries_arm(child)) next.push_back(child);
+    }
+    return next;
+  };
+  std::vector<int> chain;
+  if (map.mapped(neck)) chain.push_back(from);
+  for (std::vector<int> next = chain_children(from); next.size() == 1; next = chain_children(next.front())) {
+    if (!helper[next.front()]) chain.push_back(next.front());
+  }
+  if (chain.empty() || (map.mapped(neck) && chain.size() < 2)) return;
+  map.joints[head] = chain.back();
+  if (!map.mapped(neck) && chain.size() >= 2) map.joints[neck] = chain.front();
+}
+
 }  // namespace
 
 BoneMap bone_map_from_names(const Skeleton& rig) {
@@ -248,7 +295,9 @@ BoneMap bone_map_from_names(const Skeleton& rig) {
     const Candidate* best = nullptr;
     for (const Candidate& candidate : candidates[c]) {
       if (claimed[candidate.joint]) continue;
-      const auto key = [&](const Candidate& x) { return std::tuple(x.rank, helper[x.joint] ? 1 : 0, x.joint); };
+      const auto key = [&](const Candidate& x) {
+        return std::tuple(x.rank, helper[x.joint] ? 1 : 0, x.underscored ? 1 : 0, x.number, x.joint);
+      };
       if (!best || key(candidate) < key(*best)) best = &candidate;
     }
     if (best) {
@@ -257,13 +306,17 @@ BoneMap bone_map_from_names(const Skeleton& rig) {
     }
   }
 
-  // The pelvis is where both legs and the spine meet.
+  // The pelvis is where both legs and the upper body meet (MakeHuman's legs hang from Hips, its
+  // spine from Root, the parent of both).
   if (map.mapped(left_hip) && map.mapped(right_hip)) {
-    const int legs_meet = lowest_common_ancestor(rig, map.joints[left_hip], map.joints[right_hip]);
+    int body_meet = lowest_common_ancestor(rig, map.joints[left_hip], map.joints[right_hip]);
+    for (int upper : {neck, head, left_collar, right_collar, left_shoulder, right_shoulder}) {
+      if (map.mapped(upper) && body_meet >= 0) body_meet = lowest_common_ancestor(rig, body_meet, map.joints[upper]);
+    }
     const int named = map.joints[pelvis];
-    if (legs_meet >= 0 && (named < 0 || !is_ancestor(rig, named, legs_meet))) {
-      if (map.canonical_of(legs_meet) >= 0) map.joints[map.canonical_of(legs_meet)] = -1;
-      map.joints[pelvis] = legs_meet;
+    if (body_meet >= 0 && (named < 0 || !is_ancestor(rig, named, body_meet))) {
+      if (map.canonical_of(body_meet) >= 0) map.joints[map.canonical_of(body_meet)] = -1;
+      map.joints[pelvis] = body_meet;
     }
   }
 
@@ -290,6 +343,7 @@ BoneMap bone_map_from_names(const Skeleton& rig) {
       if (chain.size() >= 2) map.joints[spine2] = chain.back();
     }
   }
+  map_neck_and_head_from_chain(rig, helper, map);
   return map;
 }
 
@@ -329,6 +383,48 @@ std::string joined(const std::vector<std::string>& items, const char* separator)
   return text;
 }
 
+// Whether the joints mapped left are on the rig's left, from where the rig faces in its rest
+// pose. Which way a rig faces after import is anyone's guess (armatures turned at the root, +Y or
+// -Y or +X forward), so facing is read from the body itself, horizontally, by every cue the map
+// has: the feet (ankle -> ball of the foot), the eyes (head -> between the eyes) and the jaw
+// (head -> jaw). The rig's left is up x facing; the mapped left is the mean of left-minus-right
+// over hips and shoulders. Each cue votes; a cue too short to point (under 1% of the
+// hip-to-head height horizontally) abstains. Swapped when every voting cue says so: cues that
+// disagree (a rig whose eyes look sideways) or none at all leave the names to be trusted.
+// Returns the problem naming the cues tried, or empty.
+std::string sides_swapped(const Skeleton& rig, const BoneMap& map) {
+  using namespace canonical;
+  const std::vector<RigidTransform<double>> rest = rig.rest_world();
+  const auto at = [&](int c) -> const Eigen::Vector3d& { return rest[map.joints[c]].translation; };
+  const auto horizontal = [](Eigen::Vector3d v) {
+    v.z() = 0;
+    return v;
+  };
+  const Eigen::Vector3d leftward = horizontal((at(left_hip) - at(right_hip)) + (at(left_shoulder) - at(right_shoulder)));
+  const double reach = 0.01 * std::abs(at(head).z() - at(pelvis).z());
+  struct Cue {
+    const char* name;
+    Eigen::Vector3d facing;
+  };
+  std::vector<Cue> cues;
+  if (map.mapped(left_foot) && map.mapped(right_foot)) {
+    cues.push_back({"the feet (ankle to ball of the foot)", horizontal((at(left_foot) - at(left_ankle)) + (at(right_foot) - at(right_ankle)))});
+  }
+  if (map.mapped(left_eye) && map.mapped(right_eye)) {
+    cues.push_back({"the eyes (head to between the eyes)", horizontal(0.5 * (at(left_eye) + at(right_eye)) - at(head))});
+  }
+  if (map.mapped(jaw)) cues.push_back({"the jaw (head to jaw)", horizontal(at(jaw) - at(head))});
+  std::vector<std::string> agree, disagree;
+  for (const Cue& cue : cues) {
+    if (cue.facing.norm() <= reach || leftward.norm() <= reach) continue;
+    (Eigen::Vector3d::UnitZ().cross(cue.facing).dot(leftward) < 0 ? disagree : agree).push_back(cue.name);
+  }
+  if (disagree.empty() || !agree.empty()) return {};
+  return "left and right are swapped: the joints mapped to left_* (" + rig.name(map.joints[left_hip]) + ", " +
+         rig.name(map.joints[left_shoulder]) + ") are on the rig's right, judged by where " + joined(disagree, " and ") +
+         " point in the rest pose, whichever way the rig faces (a user bone map overrides the names)";
+}
+
 // Applies entries to `map`; every name must exist.
 void apply_entries(BoneMap& map, const Skeleton& rig, const io::BoneMapFile& file, const std::string& origin) {
   for (const io::BoneMapEntry& entry : file.entries) {
@@ -354,6 +450,16 @@ void apply_entries(BoneMap& map, const Skeleton& rig, const io::BoneMapFile& fil
     map.joints[c] = joints.empty() ? -1 : joints.front();
     for (std::size_t k = 1; k < joints.size(); ++k) map.followers.push_back({joints[k], c});
   }
+}
+
+// The user map over `map`, then the humanoid check (humanoid_bone_map).
+BoneMap checked_humanoid(BoneMap map, const Skeleton& rig, const std::string& rig_label, const std::string& user_map_path) {
+  if (!user_map_path.empty()) override_bone_map(map, rig, io::load_bone_map_file(user_map_path), user_map_path);
+  const std::vector<std::string> problems = humanoid_problems(rig, map);
+  if (!problems.empty()) {
+    throw io::InputError(rig_label, "not a humanoid rig (bone map from " + map.origin + "): " + joined(problems, "; "));
+  }
+  return map;
 }
 
 }  // namespace
@@ -440,28 +546,70 @@ std::vector<std::string> humanoid_problems(const Skeleton& rig, const BoneMap& m
   require_above(pelvis, right_knee);
   require_above(left_knee, left_ankle);
   require_above(right_knee, right_ankle);
-  if (map.mapped(left_foot) && map.mapped(right_foot)) {
-    // Facing from the feet (ankle -> ball of the foot); the rig's left is up x facing.
-    Eigen::Vector3d facing = (at(left_foot) - at(left_ankle)) + (at(right_foot) - at(right_ankle));
-    facing.z() = 0;
-    Eigen::Vector3d leftward = (at(left_hip) - at(right_hip)) + (at(left_shoulder) - at(right_shoulder));
-    leftward.z() = 0;
-    if (facing.norm() > 1e-9 && Eigen::Vector3d::UnitZ().cross(facing).dot(leftward) < 0) {
-      problems.push_back("left and right are swapped: the joints mapped to left_* are on the rig's right (judged by "
-                         "where the feet point)");
-    }
+  if (!problems.empty()) {
+    // Say where the body points instead, so that a rig lying down (an armature turned at its
+    // root, a Y-up file read as Z-up) is recognised as such.
+    const Eigen::Vector3d up = (at(head) - 0.5 * (at(left_ankle) + at(right_ankle))).normalized();
+    int axis = 0;
+    up.cwiseAbs().maxCoeff(&axis);
+    problems.front() += std::string(" (ankles to head points along ") + (up[axis] < 0 ? "-" : "+") + "xyz"[axis] +
+                        " in the Z-up world: is the rig turned at its root?)";
   }
+  if (const std::string swapped = sides_swapped(rig, map); !swapped.empty()) problems.push_back(swapped);
   return problems;
 }
 
-BoneMap humanoid_bone_map(const Skeleton& rig, const std::string& rig_label, const std::string& user_map_path) {
-  BoneMap map = detect_bone_map(rig);
-  if (!user_map_path.empty()) override_bone_map(map, rig, io::load_bone_map_file(user_map_path), user_map_path);
-  const std::vector<std::string> problems = humanoid_problems(rig, map);
-  if (!problems.empty()) {
-    throw io::InputError(rig_label, "not a humanoid rig (bone map from " + map.origin + "): " + joined(problems, "; "));
+BoneMap bone_map_from_declared(const Skeleton& rig, const std::vector<Character::DeclaredBone>& bones,
+                               const std::string& convention) {
+  using namespace canonical;
+  if (convention != "VRM 0.x" && convention != "VRM 1.0") {
+    throw std::invalid_argument("unknown declared humanoid convention '" + convention + "'");
+  }
+  const bool has_upper_chest = std::any_of(bones.begin(), bones.end(), [](const auto& b) { return b.bone == "upperChest"; });
+  std::vector<std::pair<std::string, int>> vocabulary = {
+      {"hips", pelvis}, {"spine", spine1}, {"chest", has_upper_chest ? spine2 : spine3}, {"upperChest", spine3},
+      {"neck", neck}, {"head", head}, {"jaw", jaw}};
+  for (const bool left : {true, false}) {
+    const std::string side = left ? "left" : "right";
+    const auto sided_joint = [&](int left_canonical) { return left ? left_canonical : canonical_mirror(left_canonical); };
+    for (const auto& [part, c] : std::vector<std::pair<const char*, int>>{
+             {"Eye", left_eye}, {"Shoulder", left_collar}, {"UpperArm", left_shoulder}, {"LowerArm", left_elbow},
+             {"Hand", left_wrist}, {"UpperLeg", left_hip}, {"LowerLeg", left_knee}, {"Foot", left_ankle}, {"Toes", left_foot}}) {
+      vocabulary.emplace_back(side + part, sided_joint(c));
+    }
+    const std::vector<std::string> thumb = convention == "VRM 1.0" ? std::vector<std::string>{"Metacarpal", "Proximal", "Distal"}
+                                                                   : std::vector<std::string>{"Proximal", "Intermediate", "Distal"};
+    for (int k = 0; k < 3; ++k) {
+      vocabulary.emplace_back(side + "Thumb" + thumb[k], canonical_index(side + "_thumb" + std::to_string(k + 1)));
+      for (const auto& [vrm, smplx] : {std::pair("Index", "index"), std::pair("Middle", "middle"), std::pair("Ring", "ring"),
+                                       std::pair("Little", "pinky")}) {
+        const char* segment[] = {"Proximal", "Intermediate", "Distal"};
+        vocabulary.emplace_back(side + vrm + segment[k], canonical_index(side + "_" + smplx + std::to_string(k + 1)));
+      }
+    }
+  }
+  BoneMap map;
+  map.origin = convention + " humanoid declared in the file";
+  for (const Character::DeclaredBone& bone : bones) {
+    if (bone.joint < 0 || bone.joint >= rig.joint_count()) {
+      throw std::invalid_argument("declared bone '" + bone.bone + "' names joint " + std::to_string(bone.joint) +
+                                  " of a " + std::to_string(rig.joint_count()) + "-joint skeleton");
+    }
+    for (const auto& [name, c] : vocabulary) {
+      if (name == bone.bone) map.joints[c] = bone.joint;
+    }
   }
   return map;
+}
+
+BoneMap humanoid_bone_map(const Character& character, const std::string& rig_label, const std::string& user_map_path) {
+  if (character.declared_humanoid.empty()) return humanoid_bone_map(character.skeleton, rig_label, user_map_path);
+  BoneMap map = bone_map_from_declared(character.skeleton, character.declared_humanoid, character.declared_humanoid_convention);
+  return checked_humanoid(std::move(map), character.skeleton, rig_label, user_map_path);
+}
+
+BoneMap humanoid_bone_map(const Skeleton& rig, const std::string& rig_label, const std::string& user_map_path) {
+  return checked_humanoid(detect_bone_map(rig), rig, rig_label, user_map_path);
 }
 
 std::vector<int> unmapped_joints(const Skeleton& rig, const BoneMap& map) {

@@ -3,6 +3,8 @@
 // Where a map comes from, in order of precedence:
 //   1. a user's JSON map (mocap_io/bone_map_file.h), applied over what was detected: each entry
 //      replaces the detected joint for its canonical name, null unmaps it;
+//   1b. the humanoid bone list the character file declares (VRM 0.x and 1.0, see
+//      bone_map_from_declared), taken as the file says, without presets or names;
 //   2. a preset (retarget/presets/*.json) that fits the rig: every body joint the preset names
 //      (pelvis to wrists, canonical 0-21) exists in the rig, hand and face joints where they do,
 //      and the result passes the humanoid check below; among fitting presets the one naming the
@@ -13,7 +15,10 @@
 //      lower-cased; side markers L/R, Left/Right, .L/_l, l_/r_ recognised as whole words or as a
 //      left/right prefix; rig prefixes such as Bip/DEF/b dropped; names ending in End/Nub/Tip are
 //      end markers and never mapped) and matched against a synonym table per canonical joint.
-//      Words that mean different joints in different conventions are resolved by rank and by
+//      Among candidates of equal rank: a joint that sits on its parent loses (below), then one
+//      whose name starts with '_' (MakeHuman's helpers __UpLeg_L, __Clavicle_L above UpLeg_L,
+//      Clavicle_L), then the higher number (Unreal's neck_02 to neck_01, Rigify's deform split
+//      DEF-upper_arm.L.001 to DEF-upper_arm.L). Words that mean different joints in different conventions are resolved by rank and by
 //      which joints are claimed first: "shoulder" is the upper arm unless another joint is named
 //      arm/upperarm (then it is the clavicle), "foot" is the ankle unless another joint is named
 //      ankle (then it is the ball of the foot), "leg" is the shin unless another is named
@@ -24,7 +29,11 @@
 //      in RobotExpressive where the legs hang from Body, not Hips), and the spine is the chain
 //      from the pelvis to the chest, the lowest common ancestor of the neck and both arms: the
 //      chest is spine3, the first joint above the pelvis spine1, the last below the chest spine2,
-//      skipping zero-length helpers. Finger words (thumb, index, middle, ring, pinky/little)
+//      skipping zero-length helpers; a pelvis named elsewhere than where the legs and the upper
+//      body meet (MakeHuman's Hips, parent of the legs only) gives way to that joint. When no
+//      joint is named head (Rigify's spine.004 .. spine.006), the head is the top of the chain
+//      that leaves the chest carrying no arm and the neck its first joint (see
+//      map_neck_and_head_from_chain in bone_map.cpp). Finger words (thumb, index, middle, ring, pinky/little)
 //      with a number 1-3 (none: 1) map to the finger joints.
 //
 // A map may also list followers: rig joints without a canonical role of their own that move
@@ -37,6 +46,7 @@
 
 #include "mocap_io/bone_map_file.h"
 #include "retarget/canonical.h"
+#include "skeleton/character.h"
 #include "skeleton/skeleton.h"
 
 namespace odyssey::retarget {
@@ -73,6 +83,16 @@ BoneMap detect_bone_map(const Skeleton& rig);
 // Detection from names and hierarchy alone, no presets.
 BoneMap bone_map_from_names(const Skeleton& rig);
 
+// The map a character file declares (Character::declared_humanoid), in VRM's vocabulary: hips
+// pelvis, spine spine1, chest spine3 (spine2 when upperChest is declared, which is then spine3),
+// neck, head, jaw, eyes, shoulder the collar, upperArm/lowerArm/hand the shoulder/elbow/wrist,
+// upperLeg/lowerLeg/foot/toes the hip/knee/ankle/ball of the foot; fingers Proximal,
+// Intermediate, Distal 1, 2, 3 (Little is the pinky), except the VRM 1.0 thumb, Metacarpal,
+// Proximal, Distal. Bone names outside this list are ignored. Origin "VRM 1.0 humanoid declared
+// in the file". Throws std::invalid_argument for a convention other than "VRM 0.x" or "VRM 1.0".
+BoneMap bone_map_from_declared(const Skeleton& rig, const std::vector<Character::DeclaredBone>& bones,
+                               const std::string& convention);
+
 // Applies a user map over `map` (see the top of this file). Throws io::InputError(origin, ...)
 // naming an unknown canonical name or a missing rig joint.
 void override_bone_map(BoneMap& map, const Skeleton& rig, const io::BoneMapFile& user, const std::string& origin);
@@ -88,6 +108,9 @@ std::vector<std::string> humanoid_problems(const Skeleton& rig, const BoneMap& m
 // and requires a humanoid: throws io::InputError(rig_label, "not a humanoid rig: ...") listing
 // the problems, and io::InputError for a bad user map.
 BoneMap humanoid_bone_map(const Skeleton& rig, const std::string& rig_label, const std::string& user_map_path = {});
+// The same for a character: its declared humanoid (bone_map_from_declared) when the file has one,
+// else detection on its skeleton.
+BoneMap humanoid_bone_map(const Character& character, const std::string& rig_label, const std::string& user_map_path = {});
 
 // Rig joints that play no canonical joint and follow none, in skeleton order.
 std::vector<int> unmapped_joints(const Skeleton& rig, const BoneMap& map);

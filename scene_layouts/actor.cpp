@@ -193,7 +193,7 @@ RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCal
   actor.full_source_map =
       retarget::humanoid_bone_map(actor.source.skeleton, request.motion_path, request.source_map_path.value_or(""));
   actor.full_target_map =
-      retarget::humanoid_bone_map(actor.character.skeleton, request.character_path, request.map_path.value_or(""));
+      retarget::humanoid_bone_map(actor.character, request.character_path, request.map_path.value_or(""));
   actor.source_map = retarget::restrict_bone_map(actor.full_source_map, request.parts);
   actor.target_map = retarget::restrict_bone_map(actor.full_target_map, request.parts);
   actor.seconds.bone_maps = seconds_since(start);

@@ -41,6 +41,14 @@ struct Character {
   // Uniform scale accumulated on each joint in the file (glTF node scales, armature scale), which
   // the rigid skeleton has folded away; writers restore it for translation channels.
   std::vector<double> source_scale_of_joint;
+  // The humanoid bone list the file declares, in the file's own vocabulary (VRM's "hips",
+  // "leftUpperLeg", ...): which joint plays each bone; empty when the file declares none.
+  struct DeclaredBone {
+    std::string bone;
+    int joint;
+  };
+  std::vector<DeclaredBone> declared_humanoid;
+  std::string declared_humanoid_convention;  // "VRM 0.x" or "VRM 1.0"; empty when none
   // What the loader skipped, approximated or cannot animate (unsupported primitives, influences
   // beyond four, morph targets, the file parser's own remarks), one line each.
   std::vector<std::string> warnings;

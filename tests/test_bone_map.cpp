@@ -1,8 +1,11 @@
 // Bone maps: presets on every shared character and the CMU BVH, detection from names in several
-// naming conventions (it must agree with the presets), user maps over detection, the joints left
-// unmapped, the humanoid check (the Fox is not one), and bone map files that are not right.
+// naming conventions (it must agree with the presets; Rigify, KayKit, Unreal, MakeHuman), maps
+// VRM files declare, user maps over detection, the joints left unmapped, the humanoid check (the
+// Fox is not one; sides judged whichever way a rig faces), and bone map files that are not right.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -15,6 +18,8 @@
 #include "mocap_io/input_error.h"
 #include "retarget/bone_map.h"
 #include "retarget/reference_rig.h"
+#include "derived_characters.h"
+#include "skeleton/rotation.h"
 #include "test_support.h"
 
 namespace odyssey::retarget {
@@ -275,6 +280,214 @@ TEST(BoneMapFileTest, RejectsBadFiles) {
   EXPECT_EQ(file.entries[0].canonical, "pelvis");  // file order kept
   EXPECT_TRUE(file.entries[1].rig_joints.empty());
   EXPECT_EQ(file.entries[2].rig_joints, (std::vector<std::string>{"a", "b"}));
+}
+
+// --- Rig conventions beyond Mixamo: each joint's role, asserted pair by pair. ---
+
+void expect_roles(const Skeleton& rig, const BoneMap& map, const std::map<std::string, std::string>& roles,
+                  const std::string& label) {
+  const auto mapped = named(rig, map);
+  for (const auto& [canonical, joint] : roles) {
+    ASSERT_TRUE(mapped.count(canonical)) << label << ": nothing plays " << canonical;
+    EXPECT_EQ(mapped.at(canonical), joint) << label << ": " << canonical;
+  }
+  EXPECT_TRUE(humanoid_problems(rig, map).empty()) << label;
+}
+
+// Blender Rigify metarig: the spine is spine, spine.001 .. spine.005 with no joint named head or
+// neck; the shoulders hang from spine.003, so spine.004 is the neck and spine.005 the head. The
+// armature is turned and offset at its root, and A-posed.
+TEST(BoneMapTest, RigifyMaleBaseMeshGetsItsRoles) {
+  const Character male = character("male_base_mesh.glb");
+  const BoneMap map = humanoid_bone_map(male, "male_base_mesh.glb");
+  EXPECT_EQ(map.origin, "joint names");
+  expect_roles(male.skeleton, map,
+               {{"pelvis", "spine"}, {"spine1", "spine.001"}, {"spine2", "spine.002"}, {"spine3", "spine.003"},
+                {"neck", "spine.004"}, {"head", "spine.005"}, {"left_collar", "shoulder.L"}, {"left_shoulder", "upper_arm.L"},
+                {"left_elbow", "forearm.L"}, {"left_wrist", "hand.L"}, {"right_wrist", "hand.R"}, {"left_hip", "thigh.L"},
+                {"left_knee", "shin.L"}, {"left_ankle", "foot.L"}, {"left_foot", "toe.L"}, {"right_foot", "toe.R"},
+                {"left_index1", "f_index.01.L"}, {"left_thumb3", "thumb.03.L"}},
+               "Rigify");
+}
+
+// KayKit's dotted lower-case sides; wrist.l is the wrist and hand.l (its child) rides on it.
+TEST(BoneMapTest, KayKitDottedNamesGetTheirRoles) {
+  const Character kaykit = character("kaykit_mannequin/manny_med_mod.gltf");
+  const BoneMap map = humanoid_bone_map(kaykit, "manny_med_mod.gltf");
+  expect_roles(kaykit.skeleton, map,
+               {{"pelvis", "hips"}, {"spine1", "spine"}, {"spine3", "chest"}, {"head", "head"}, {"left_shoulder", "upperarm.l"},
+                {"left_elbow", "lowerarm.l"}, {"left_wrist", "wrist.l"}, {"right_wrist", "wrist.r"}, {"left_hip", "upperleg.l"},
+                {"left_knee", "lowerleg.l"}, {"left_ankle", "foot.l"}, {"left_foot", "toes.l"}, {"right_foot", "toes.r"}},
+               "KayKit");
+}
+
+TEST(BoneMapTest, SharedPresetCharactersKeepTheirRoles) {
+  const Character figure = character("RiggedFigure.glb");
+  expect_roles(figure.skeleton, humanoid_bone_map(figure, "RiggedFigure.glb"),
+               {{"pelvis", "torso_joint_1"}, {"left_hip", "leg_joint_L_1"}, {"left_knee", "leg_joint_L_2"},
+                {"left_shoulder", "arm_joint_L_1"}, {"left_wrist", "arm_joint_L_3"}, {"head", "neck_joint_2"}},
+               "RiggedFigure");
+  const Character robot = character("RobotExpressive.glb");
+  expect_roles(robot.skeleton, humanoid_bone_map(robot, "RobotExpressive.glb"),
+               {{"pelvis", "Body"}, {"left_hip", "UpperLeg.L"}, {"left_knee", "LowerLeg.L"}, {"left_ankle", "Foot.L"},
+                {"left_shoulder", "UpperArm.L"}, {"left_wrist", "Palm2.L"}, {"head", "Head"}},
+               "RobotExpressive");
+  const Character cesium = character("CesiumMan.glb");
+  expect_roles(cesium.skeleton, humanoid_bone_map(cesium, "CesiumMan.glb"),
+               {{"left_shoulder", "joint_16"}, {"left_wrist", "joint_18"}, {"left_hip", "joint_7"}, {"right_foot", "joint_6"}},
+               "CesiumMan");
+}
+
+// Unreal mannequin names on the Rigify rig (turned at its root, A-posed) and on the Mixamo
+// reference rig (T-pose): pelvis, spine_01.., neck_01, clavicle_l, upperarm_l, lowerarm_l,
+// hand_l, thigh_l, calf_l, foot_l, ball_l, index_01_l.
+TEST(BoneMapTest, UnrealMannequinNamesGetTheirRoles) {
+  const Character unreal = io::load_character(test_support::unreal_character(odyssey::test_support::scratch_root() / "bone_map"));
+  const BoneMap map = humanoid_bone_map(unreal, "unreal_male.glb");
+  expect_roles(unreal.skeleton, map,
+               {{"pelvis", "pelvis"}, {"spine1", "spine_01"}, {"spine2", "spine_02"}, {"spine3", "spine_03"}, {"neck", "neck_01"},
+                {"head", "head"}, {"left_collar", "clavicle_l"}, {"left_shoulder", "upperarm_l"}, {"left_elbow", "lowerarm_l"},
+                {"left_wrist", "hand_l"}, {"left_hip", "thigh_l"}, {"left_knee", "calf_l"}, {"left_ankle", "foot_l"},
+                {"left_foot", "ball_l"}, {"right_foot", "ball_r"}, {"left_index1", "index_01_l"}, {"right_thumb2", "thumb_02_r"}},
+               "Unreal on Rigify");
+
+  const Skeleton mixamo = reference_humanoid(ReferenceNames::mixamo, 45);
+  const std::map<std::string, std::string> to_unreal = {
+      {"Hips", "pelvis"}, {"Spine", "spine_01"}, {"Spine1", "spine_02"}, {"Spine2", "spine_03"}, {"Neck", "neck_01"},
+      {"Head", "head"}, {"LeftShoulder", "clavicle_l"}, {"LeftArm", "upperarm_l"}, {"LeftForeArm", "lowerarm_l"},
+      {"LeftHand", "hand_l"}, {"LeftUpLeg", "thigh_l"}, {"LeftLeg", "calf_l"}, {"LeftFoot", "foot_l"}, {"LeftToeBase", "ball_l"},
+      {"RightShoulder", "clavicle_r"}, {"RightArm", "upperarm_r"}, {"RightForeArm", "lowerarm_r"}, {"RightHand", "hand_r"},
+      {"RightUpLeg", "thigh_r"}, {"RightLeg", "calf_r"}, {"RightFoot", "foot_r"}, {"RightToeBase", "ball_r"}};
+  const Skeleton renamed_mixamo = renamed(mixamo, [&](const std::string& name) {
+    const std::string plain = name.substr(name.find(':') + 1);
+    const auto it = to_unreal.find(plain);
+    return it != to_unreal.end() ? it->second : "extra_" + plain;
+  });
+  std::map<std::string, std::string> roles;
+  for (const auto& [canonical, joint] : named(mixamo, bone_map_from_names(mixamo))) {
+    const auto it = to_unreal.find(joint.substr(joint.find(':') + 1));
+    if (it != to_unreal.end()) roles[canonical] = it->second;
+  }
+  EXPECT_EQ(roles.size(), to_unreal.size());
+  expect_roles(renamed_mixamo, humanoid_bone_map(renamed_mixamo, "unreal mixamo"), roles, "Unreal on Mixamo");
+}
+
+// VRM: the humanoid list the file declares decides, whatever the node names (all renamed n<i>).
+TEST(BoneMapTest, VrmDeclaredHumanoidDecides) {
+  const fs::path dir = odyssey::test_support::scratch_root() / "bone_map";
+  const auto node_name = [](const std::string& source, const std::string& original) {
+    std::ifstream in(source, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (source.ends_with(".glb")) {
+      std::uint32_t length;
+      std::memcpy(&length, bytes.data() + 12, 4);
+      bytes = bytes.substr(20, length);
+    }
+    return "n" + std::to_string(test_support::node_indices(nlohmann::json::parse(bytes)).at(original));
+  };
+  const std::string kaykit_source = test_support::kSharedCharacters + "kaykit_mannequin/manny_med_mod.gltf";
+  const Character vrm0 = io::load_character(test_support::vrm0_character(dir));
+  EXPECT_EQ(vrm0.declared_humanoid_convention, "VRM 0.x");
+  EXPECT_EQ(vrm0.declared_humanoid.size(), test_support::kaykit_vrm_bones().size());
+  const BoneMap map0 = humanoid_bone_map(vrm0, "kaykit_vrm0.gltf");
+  EXPECT_EQ(map0.origin, "VRM 0.x humanoid declared in the file");
+  std::map<std::string, std::string> roles0;
+  for (const auto& [canonical, original] : std::map<std::string, std::string>{
+           {"pelvis", "hips"}, {"spine1", "spine"}, {"spine3", "chest"}, {"head", "head"}, {"left_shoulder", "upperarm.l"},
+           {"left_wrist", "wrist.l"}, {"right_knee", "lowerleg.r"}, {"left_ankle", "foot.l"}, {"left_foot", "toes.l"}}) {
+    roles0[canonical] = node_name(kaykit_source, original);
+  }
+  expect_roles(vrm0.skeleton, map0, roles0, "VRM 0.x");
+  EXPECT_FALSE(map0.mapped(canonical::spine2));  // no upperChest: chest is the top of the spine
+  // Names alone find nothing in n0, n1, ...
+  EXPECT_FALSE(humanoid_problems(vrm0.skeleton, detect_bone_map(vrm0.skeleton)).empty());
+
+  const std::string male_source = test_support::kSharedCharacters + "male_base_mesh.glb";
+  const Character vrm1 = io::load_character(test_support::vrm1_character(dir));
+  EXPECT_EQ(vrm1.declared_humanoid_convention, "VRM 1.0");
+  const BoneMap map1 = humanoid_bone_map(vrm1, "male_vrm1.glb");
+  EXPECT_EQ(map1.origin, "VRM 1.0 humanoid declared in the file");
+  std::map<std::string, std::string> roles1;
+  for (const auto& [canonical, original] : std::map<std::string, std::string>{
+           {"pelvis", "spine"}, {"spine1", "spine.001"}, {"spine2", "spine.002"}, {"spine3", "spine.003"}, {"neck", "spine.004"},
+           {"head", "spine.005"}, {"left_collar", "shoulder.L"}, {"right_elbow", "forearm.R"}, {"left_foot", "toe.L"},
+           {"left_thumb1", "thumb.01.L"}, {"left_thumb2", "thumb.02.L"}, {"left_index1", "f_index.01.L"}}) {
+    roles1[canonical] = node_name(male_source, original);
+  }
+  expect_roles(vrm1.skeleton, map1, roles1, "VRM 1.0");
+}
+
+TEST(BoneMapTest, BadVrmListsNameTheirJsonPath) {
+  const fs::path dir = odyssey::test_support::scratch_root() / "bone_map";
+  const fs::path out = dir / "bad_vrm.glb";
+  test_support::write_derived_gltf(test_support::kSharedCharacters + "male_base_mesh.glb", out, [](nlohmann::json& g) {
+    g["extensions"]["VRMC_vrm"] = {{"humanoid", {{"humanBones", {{"hips", {{"node", 100000}}}}}}}};
+  });
+  const std::string message = test_support::message_of<io::InputError>([&] { io::load_character(out.string()); });
+  EXPECT_NE(message.find("extensions.VRMC_vrm.humanoid.humanBones.hips refers to node 100000"), std::string::npos) << message;
+  test_support::write_derived_gltf(test_support::kSharedCharacters + "male_base_mesh.glb", out, [](nlohmann::json& g) {
+    g["extensions"]["VRM"] = {{"humanoid", {{"humanBones", {{{"bone", "hips"}}}}}}};
+  });
+  const std::string missing = test_support::message_of<io::InputError>([&] { io::load_character(out.string()); });
+  EXPECT_NE(missing.find("extensions.VRM.humanoid.humanBones[bone 'hips'] has no 'node'"), std::string::npos) << missing;
+}
+
+// MakeHuman's BVH skeleton as a source: its legs hang from Hips and its spine from Root, and
+// every limb has a helper __X above X.
+TEST(BoneMapTest, MakeHumanBvhGetsItsRoles) {
+  const Clip walk = io::load_bvh_inferring_frame(kAssets + "/mocap/makehuman_walk1.bvh").clip;
+  ASSERT_EQ(walk.joint_count(), 75);
+  expect_roles(walk.skeleton, humanoid_bone_map(walk.skeleton, "makehuman_walk1.bvh"),
+               {{"pelvis", "Root"}, {"spine1", "Spine1"}, {"spine2", "Spine2"}, {"spine3", "Spine3"}, {"neck", "Neck"},
+                {"head", "Head"}, {"left_collar", "Clavicle_L"}, {"left_shoulder", "UpArm_L"}, {"left_elbow", "LoArm_L"},
+                {"left_wrist", "Hand_L"}, {"left_hip", "UpLeg_L"}, {"right_hip", "UpLeg_R"}, {"left_knee", "LoLeg_L"},
+                {"left_ankle", "Foot_L"}, {"left_foot", "Toe_L"}, {"left_index1", "Index1_L"}, {"jaw", "Jaw"},
+                {"left_eye_smplhf", "Eye_L"}},
+               "MakeHuman");
+}
+
+// The same rig turned about the vertical by any angle (an armature turned at its root) keeps its
+// map and passes the side check; with its sides' names swapped it fails, naming the cues tried.
+TEST(BoneMapTest, SidesHoldWhicheverWayTheRigFaces) {
+  const Character kaykit = character("kaykit_mannequin/manny_med_mod.gltf");
+  const Skeleton& rig = kaykit.skeleton;
+  const auto expected = named(rig, bone_map_from_names(rig));
+  const auto turned = [&](const Eigen::Quaterniond& turn, const Skeleton& from) {
+    std::vector<Eigen::Vector3d> offsets = from.rest_offsets();
+    std::vector<Eigen::Quaterniond> rotations = from.rest_rotations();
+    for (int j = 0; j < from.joint_count(); ++j) {
+      if (from.parent(j) >= 0) continue;
+      offsets[j] = turn * offsets[j] + Eigen::Vector3d(3, -2, 0);
+      rotations[j] = turn * rotations[j];
+    }
+    return Skeleton(from.names(), from.parents(), offsets, rotations);
+  };
+  const Skeleton swapped = renamed(rig, [](std::string name) {
+    if (name.ends_with(".l")) name.back() = 'r';
+    else if (name.ends_with(".r")) name.back() = 'l';
+    return name;
+  });
+  for (const double degrees : {0.0, 90.0, 180.0, 270.0, 33.0}) {
+    const Eigen::Quaterniond turn(Eigen::AngleAxisd(degrees * M_PI / 180, Eigen::Vector3d::UnitZ()));
+    const Skeleton rig_turned = turned(turn, rig);
+    const BoneMap map = bone_map_from_names(rig_turned);
+    EXPECT_EQ(named(rig_turned, map), expected) << degrees;
+    EXPECT_TRUE(humanoid_problems(rig_turned, map).empty()) << degrees;
+    const Skeleton swapped_turned = turned(turn, swapped);
+    const std::vector<std::string> problems = humanoid_problems(swapped_turned, bone_map_from_names(swapped_turned));
+    ASSERT_EQ(problems.size(), 1u) << degrees;
+    EXPECT_NE(problems[0].find("left and right are swapped: the joints mapped to left_* (upperleg.l, upperarm.l) are on the "
+                               "rig's right, judged by where the feet (ankle to ball of the foot) point"),
+              std::string::npos)
+        << problems[0];
+  }
+  // Lying down (a Y-up rig read as Z-up): the message says where the body points.
+  const Skeleton lying = turned(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX())), rig);
+  const std::vector<std::string> problems = humanoid_problems(lying, bone_map_from_names(lying));
+  ASSERT_FALSE(problems.empty());
+  EXPECT_NE(problems[0].find("(ankles to head points along -y in the Z-up world: is the rig turned at its root?)"),
+            std::string::npos)
+      << problems[0];
 }
 
 }  // namespace
