@@ -11,7 +11,9 @@
 namespace odyssey::cli {
 
 // --camera, --width, --height, --hfov, --camera-position, --camera-target, --camera-radius,
-// --camera-height, --camera-period, --eye-forward, --eye-up, --camera-smooth, --camera-file.
+// --camera-height, --camera-period, --eye-forward, --eye-up, --camera-smooth, --camera-file,
+// --camera-height-end, --camera-sweep, --camera-end-distance, --hfov-end, --camera-extent,
+// --camera-speed, --camera-fps, --camera-aim, --handheld, --handheld-rotation, --handheld-band.
 // `default_kind`: "none" where a camera is optional, else the default rig.
 void add_camera_options(Args& args, const std::string& default_kind);
 

@@ -80,6 +80,7 @@ int run_scene(const std::vector<std::string>& arguments) {
                 100 * camera.occluded_by_actor_fraction, 100 * camera.occluded_by_prop_fraction);
   }
   for (const std::string& line : result.skipped) std::printf("skipped    %s\n", line.c_str());
+  for (const std::string& line : result.notes) std::printf("note       %s\n", line.c_str());
   std::printf("timings    retarget %.3f s, frames %.3f s (%.0f frames/s), total %.3f s\n", result.seconds.retarget,
               result.seconds.streams, result.seconds.streams > 0 ? result.frames / result.seconds.streams : 0.0,
               result.seconds.total);

@@ -66,7 +66,7 @@ int run_trajectories(const std::vector<std::string>& arguments) {
   scene.outputs.chunk_frames = static_cast<int>(chunk_frames);
   scene.outputs.threads = actor.retarget.refine_options.threads;
   scene.outputs.compress = args.get_flag("compress");
-  if (args.get("camera") == "none") throw UsageError("trajectories need a camera: --camera static, orbit, ego or file");
+  if (args.get("camera") == "none") throw UsageError("trajectories need a camera: --camera static, orbit, ego, file, swoop, dolly-zoom, zoom, realestate10k or colmap");
   scene.cameras.push_back(*camera_from_options(args));
   scene.actors.push_back(std::move(actor));
   scene.outputs.trajectories = {args.get("out")};
@@ -81,6 +81,7 @@ int run_trajectories(const std::vector<std::string>& arguments) {
   std::printf("camera     %s, %dx%d px, horizontal fov %.4g deg, %d frames\n", camera.kind.c_str(),
               camera.intrinsics[0].width, camera.intrinsics[0].height, camera.intrinsics[0].horizontal_fov_deg(),
               camera.frame_count());
+  for (const std::string& line : result.notes) std::printf("note       %s\n", line.c_str());
   std::printf("points     %zu (%s sampling, seed %lld); point-frames: %.1f%% valid, %.1f%% visible\n",
               result.streams.points, sampling.c_str(), seed, 100 * seen.valid_fraction, 100 * seen.visible_fraction);
   std::printf("export     %zu frames in %.3f s (%.0f frames/s: skinning, depth buffer, projection, writing)\n",

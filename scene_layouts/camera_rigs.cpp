@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "scene_layouts/seeded_uniform.h"
+
 namespace odyssey::scene {
 namespace {
 
@@ -87,6 +89,19 @@ void smooth_poses(std::vector<CameraPose>& poses, double sigma_frames) {
   }
 }
 
+// The shot's progress u = f / (frames - 1) eased to s(u) = (1 - cos(pi u)) / 2.
+double eased_progress(int f, int frames) {
+  if (frames <= 1) return 0;
+  const double u = static_cast<double>(f) / (frames - 1);
+  return (1 - std::cos(std::numbers::pi * u)) / 2;
+}
+
+PinholeIntrinsics scaled_focal(PinholeIntrinsics k, double factor) {
+  k.fx *= factor;
+  k.fy *= factor;
+  return k;
+}
+
 }  // namespace
 
 CameraPath static_camera_path(int frames, double fps, const PinholeIntrinsics& intrinsics,
@@ -123,6 +138,114 @@ CameraPath orbit_camera_path(int frames, double fps, const PinholeIntrinsics& in
     path.poses.push_back(look_at_named("orbit camera radius, height and target", centre, options.target));
   }
   return path;
+}
+
+CameraPath swoop_camera_path(int frames, double fps, const PinholeIntrinsics& intrinsics,
+                             const SwoopCameraOptions& options) {
+  check_frames_and_fps("swoop camera", frames, fps);
+  check_intrinsics("swoop camera", intrinsics);
+  require(options.target.allFinite(), "swoop camera: target must be finite");
+  require(options.radius > 0 && std::isfinite(options.radius),
+          "swoop camera: radius must be positive and finite, got " + std::to_string(options.radius));
+  require(std::isfinite(options.start_height) && std::isfinite(options.end_height),
+          "swoop camera: start_height and end_height must be finite");
+  require(std::isfinite(options.start_angle_deg) && std::isfinite(options.sweep_deg),
+          "swoop camera: start_angle_deg and sweep_deg must be finite");
+  CameraPath path = constant_intrinsics_path("swoop", frames, fps, intrinsics);
+  const double start = options.start_angle_deg * std::numbers::pi / 180, sweep = options.sweep_deg * std::numbers::pi / 180;
+  for (int f = 0; f < frames; ++f) {
+    const double s = eased_progress(f, frames);
+    const double angle = start + sweep * s;
+    const Eigen::Vector3d centre(options.target.x() + options.radius * std::cos(angle),
+                                 options.target.y() + options.radius * std::sin(angle),
+                                 options.start_height + (options.end_height - options.start_height) * s);
+    path.poses.push_back(look_at_named("swoop camera radius, heights and target", centre, options.target));
+  }
+  return path;
+}
+
+CameraPath dolly_zoom_camera_path(int frames, double fps, const PinholeIntrinsics& intrinsics,
+                                  const DollyZoomOptions& options) {
+  check_frames_and_fps("dolly-zoom camera", frames, fps);
+  check_intrinsics("dolly-zoom camera", intrinsics);
+  require(options.start_centre.allFinite() && options.target.allFinite(),
+          "dolly-zoom camera: start_centre and target must be finite");
+  require(options.end_distance > 0 && std::isfinite(options.end_distance),
+          "dolly-zoom camera: end_distance must be positive and finite, got " + std::to_string(options.end_distance));
+  const double start_distance = (options.target - options.start_centre).norm();
+  require(start_distance > 0, "dolly-zoom camera: start_centre is on the target");
+  // One orientation for the whole move: the view axis does not turn.
+  const CameraPose first = look_at_named("dolly-zoom camera start_centre and target", options.start_centre, options.target);
+  const Eigen::Vector3d axis = first.forward();
+  CameraPath path;
+  path.kind = "dolly-zoom";
+  path.fps = fps;
+  for (int f = 0; f < frames; ++f) {
+    const double distance = start_distance + (options.end_distance - start_distance) * eased_progress(f, frames);
+    CameraPose pose = first;
+    pose.translation = -(pose.rotation * (options.target - distance * axis));
+    path.poses.push_back(pose);
+    path.intrinsics.push_back(scaled_focal(intrinsics, distance / start_distance));
+  }
+  return path;
+}
+
+CameraPath zoom_camera_path(int frames, double fps, const PinholeIntrinsics& intrinsics,
+                            const ZoomCameraOptions& options) {
+  check_frames_and_fps("zoom camera", frames, fps);
+  check_intrinsics("zoom camera", intrinsics);
+  require(options.centre.allFinite() && options.target.allFinite(), "zoom camera: centre and target must be finite");
+  require(options.end_hfov_deg > 0 && options.end_hfov_deg < 180,
+          "zoom camera: end_hfov_deg must be between 0 and 180 degrees, got " + std::to_string(options.end_hfov_deg));
+  const CameraPose pose = look_at_named("zoom camera centre and target", options.centre, options.target);
+  const double end_fx = (intrinsics.width / 2.0) / std::tan(options.end_hfov_deg * std::numbers::pi / 360);
+  const double ratio = end_fx / intrinsics.fx;
+  CameraPath path;
+  path.kind = "zoom";
+  path.fps = fps;
+  path.poses.assign(frames, pose);
+  for (int f = 0; f < frames; ++f) path.intrinsics.push_back(scaled_focal(intrinsics, std::pow(ratio, eased_progress(f, frames))));
+  return path;
+}
+
+void apply_handheld(CameraPath& path, const HandheldOptions& options, std::uint64_t seed, std::uint64_t stream) {
+  path.validate();
+  require(options.amplitude_m >= 0 && std::isfinite(options.amplitude_m),
+          "handheld: amplitude must be 0 or more metres, got " + std::to_string(options.amplitude_m));
+  require(options.rotation_deg >= 0 && options.rotation_deg <= 45,
+          "handheld: rotation must be 0 to 45 degrees, got " + std::to_string(options.rotation_deg));
+  require(options.low_hz > 0 && options.high_hz >= options.low_hz && options.high_hz < path.fps / 2,
+          "handheld: the band [" + std::to_string(options.low_hz) + ", " + std::to_string(options.high_hz) +
+              "] Hz must have 0 < low <= high < fps / 2 = " + std::to_string(path.fps / 2));
+  constexpr int kChannels = 6, kTerms = 8;
+  SeededUniform draw(seed, stream);
+  double frequency[kChannels][kTerms], phase[kChannels][kTerms];
+  for (int k = 0; k < kChannels; ++k) {
+    for (int i = 0; i < kTerms; ++i) {
+      frequency[k][i] = draw.between(options.low_hz, options.high_hz);
+      phase[k][i] = draw.between(0, 2 * std::numbers::pi);
+    }
+  }
+  const double amplitude[kChannels] = {options.amplitude_m, options.amplitude_m, options.amplitude_m,
+                                       options.rotation_deg * std::numbers::pi / 180, options.rotation_deg * std::numbers::pi / 180,
+                                       options.rotation_deg * std::numbers::pi / 180};
+  for (int f = 0; f < path.frame_count(); ++f) {
+    const double t = f / path.fps;
+    double x[kChannels];
+    for (int k = 0; k < kChannels; ++k) {
+      double sum = 0;
+      for (int i = 0; i < kTerms; ++i) sum += std::sin(2 * std::numbers::pi * frequency[k][i] * t + phase[k][i]);
+      x[k] = amplitude[k] * sum / kTerms;
+    }
+    CameraPose& pose = path.poses[f];
+    const Eigen::Vector3d centre = pose.centre() + pose.rotation.transpose() * Eigen::Vector3d(x[0], x[1], x[2]);
+    const Eigen::Matrix3d turn = (Eigen::AngleAxisd(x[3], Eigen::Vector3d::UnitX()) *
+                                  Eigen::AngleAxisd(x[4], Eigen::Vector3d::UnitY()) *
+                                  Eigen::AngleAxisd(x[5], Eigen::Vector3d::UnitZ())).toRotationMatrix();
+    pose.rotation = turn * pose.rotation;
+    pose.translation = -(pose.rotation * centre);
+  }
+  path.kind += "+handheld";
 }
 
 Eigen::Vector3d rest_facing(const Skeleton& skeleton, int left_hip, int right_hip) {

@@ -9,6 +9,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "mocap_io/camera_import.h"
 #include "mocap_io/camera_path_file.h"
 #include "mocap_io/gltf_character.h"
 #include "mocap_io/gltf_export.h"
@@ -18,7 +19,9 @@
 #include "mocap_io/scene_glb.h"
 #include "retarget/canonical.h"
 #include "scene_layouts/camera_rigs.h"
+#include "scene_layouts/imported_camera.h"
 #include "scene_layouts/preview.h"
+#include "scene_layouts/seeded_uniform.h"
 
 namespace odyssey::scene {
 namespace {
@@ -26,24 +29,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
-
-// Portable seeded numbers (the standard distributions differ between libraries): splitmix64 of
-// (seed, stream, counter), mapped to [0, 1) with 53 bits.
-class SeededUniform {
- public:
-  SeededUniform(std::uint64_t seed, std::uint64_t stream) : state_(seed * 0x9e3779b97f4a7c15ull ^ (stream + 1) * 0xbf58476d1ce4e5b9ull) {}
-  double next() {
-    std::uint64_t z = (state_ += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    z ^= z >> 31;
-    return static_cast<double>(z >> 11) * 0x1.0p-53;
-  }
-  double between(double low, double high) { return low + (high - low) * next(); }
-
- private:
-  std::uint64_t state_;
-};
 
 Eigen::Matrix3d yaw_rotation(double degrees) {
   return Eigen::AngleAxisd(degrees * std::numbers::pi / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
@@ -102,6 +87,8 @@ void validate_scene(const Scene& scene) {
   per(out.actor_reports, scene.actors.size(), "actor_reports", "actor");
   require(out.glb.empty() || (scene.actors.size() == 1 && scene.props.empty()),
           "scene outputs: a GLB is written for a scene of one actor and no props");
+  require(out.glb.empty() || scene.actors[0].source == ActorSourceKind::motion,
+          "scene outputs: the one-actor GLB animates a retargeted character; write the scene GLB for other actors");
   require(out.points_per_actor >= 0 && out.prop_points >= 0, "scene outputs: point counts must be 0 or more");
   require(out.prop_points == 0 || !scene.props.empty(), "scene outputs: prop points asked for, but the scene has no props");
 }
@@ -131,18 +118,47 @@ std::string request_key(const RetargetRequest& r) {
   return key.dump();
 }
 
-int root_joint(const RetargetedActor& actor) {
-  const retarget::BoneMap& map = actor.target_map;
-  return map.mapped(retarget::canonical::pelvis) ? map.joints[retarget::canonical::pelvis] : 0;
+// Everything that changes what an actor's source builds.
+std::string source_key(const SceneActor& actor) {
+  const auto length = [](const PlaybackLength& l) { return nlohmann::json{l.loops.value_or(0), l.seconds.value_or(-1)}; };
+  switch (actor.source) {
+    case ActorSourceKind::motion:
+      return "motion " + request_key(actor.retarget);
+    case ActorSourceKind::animation: {
+      const AnimationRequest& r = actor.animation;
+      return "animation " + nlohmann::json{r.character_path, r.animation, r.fps, length(r.length), r.scale}.dump();
+    }
+    case ActorSourceKind::anime: {
+      const AnimeRequest& r = actor.anime;
+      return "anime " + nlohmann::json{r.path, r.source_fps, r.fps, r.up_z, length(r.length), r.scale}.dump();
+    }
+  }
+  return {};
 }
+
+ActorMotion build_motion(const SceneActor& actor, const ProgressCallback& progress, LoadCache* cache) {
+  if (actor.source == ActorSourceKind::motion) {
+    return retargeted_motion(std::make_shared<const RetargetedActor>(retarget_actor(actor.retarget, progress, cache)));
+  }
+  ActorMotion motion = actor.source == ActorSourceKind::animation ? play_character_animation(actor.animation, cache)
+                                                                  : play_anime(actor.anime);
+  if (progress) {
+    progress(ProgressEvent{actor.source == ActorSourceKind::animation ? "load_character" : "load_anime",
+                           motion.source_path + ": " + motion.description, nullptr, 0, 0});
+    for (const std::string& warning : motion.warnings) progress(ProgressEvent{"warning", motion.source_path + ": " + warning, nullptr, 0, 0});
+  }
+  return motion;
+}
+
+int root_joint(const PlacedActor& actor) { return actor.motion->root_joint; }
 
 double actor_clip_end(const SceneActor& actor, double start, const Clip& clip) {
   const double trim_end = std::min(actor.trim_end_s.value_or(clip.duration()), clip.duration());
   return start + std::max(trim_end - actor.trim_start_s, 0.0) / actor.speed;
 }
 
-// The actor's clip on the scene's timeline: frame f at c(f / fps) (scene.h).
-Clip timed_clip(const SceneActor& actor, double start, const Clip& clip, int frames, double fps) {
+// The clip times of the scene's frames: frame f at c(f / fps) (scene.h).
+std::vector<double> timeline_times(const SceneActor& actor, double start, const Clip& clip, int frames, double fps) {
   const double trim_end = std::min(actor.trim_end_s.value_or(clip.duration()), clip.duration());
   if (actor.trim_start_s > trim_end) {
     throw std::invalid_argument("actor '" + actor.name + "': trim starts at " + std::to_string(actor.trim_start_s) +
@@ -152,7 +168,7 @@ Clip timed_clip(const SceneActor& actor, double start, const Clip& clip, int fra
   for (int f = 0; f < frames; ++f) {
     times[f] = std::clamp(actor.trim_start_s + actor.speed * (f / fps - start), actor.trim_start_s, trim_end);
   }
-  return clip.sampled_at(times, fps);
+  return times;
 }
 
 // Turns the whole clip by `rotation` about the origin, then moves it by `shift`: every root joint's
@@ -190,15 +206,12 @@ void move_clip(Clip& clip, const Eigen::Matrix3d& rotation, const Eigen::Vector3
 }
 
 // The direction the actor faces in a pose (degrees from +x, counter-clockwise seen from above):
-// its rest facing (camera_rigs.h) turned as its pelvis has turned from rest.
-double heading_deg(const RetargetedActor& actor, std::span<const RigidTransform<double>> world) {
-  const retarget::BoneMap& map = actor.target_map;
+// its rest facing (camera_rigs.h, actor_source.h) turned as its root (the pelvis) has turned from rest.
+double heading_deg(const ActorMotion& actor, std::span<const RigidTransform<double>> world) {
   const Skeleton& skeleton = actor.character.skeleton;
-  const Eigen::Vector3d rest = rest_facing(skeleton, map.joints[retarget::canonical::left_hip],
-                                           map.joints[retarget::canonical::right_hip]);
-  const int root = root_joint(actor);
+  const int root = actor.root_joint;
   const Eigen::Matrix3d turn = world[root].rotation * skeleton.rest_world()[root].rotation.transpose();
-  const Eigen::Vector3d facing = turn * rest;
+  const Eigen::Vector3d facing = turn * actor.rest_facing;
   return std::atan2(facing.y(), facing.x()) * 180 / std::numbers::pi;
 }
 
@@ -306,10 +319,10 @@ Framing frame_actors(const std::vector<PlacedActor>& actors) {
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
   long samples = 0;
   for (const PlacedActor& actor : actors) {
-    const Eigen::AlignedBox3d bounds = actor.retargeted->character.rest_bounds();
+    const Eigen::AlignedBox3d bounds = actor.motion->character.rest_bounds();
     framing.height = std::max(framing.height, bounds.sizes().z());
     floor = std::min(floor, bounds.min().z());
-    tracks.push_back(root_track(actor.clip, root_joint(*actor.retargeted)));
+    tracks.push_back(root_track(actor.clip, root_joint(actor)));
     for (const Eigen::Vector2d& p : tracks.back()) mean += p;
     samples += static_cast<long>(tracks.back().size());
   }
@@ -321,17 +334,55 @@ Framing frame_actors(const std::vector<PlacedActor>& actors) {
   }
   framing.target = Eigen::Vector3d(mean.x(), mean.y(), floor + 0.55 * framing.height);
   framing.distance = 2.5 * framing.height + extent;
-  const RetargetedActor& first = *actors[0].retargeted;
-  const Eigen::Vector3d rest = rest_facing(first.character.skeleton, first.target_map.joints[retarget::canonical::left_hip],
-                                           first.target_map.joints[retarget::canonical::right_hip]);
+  const Eigen::Vector3d rest = actors[0].motion->rest_facing;
   // The rest facing, turned as the first actor's placement turned its motion.
   framing.facing = yaw_rotation(actors[0].turn_deg) * rest;
   return framing;
 }
 
-CameraPath make_camera(const SceneCamera& camera, const Scene& scene, const std::vector<PlacedActor>& actors,
-                       const Framing& framing, int frames, std::size_t index) {
+// The actors' mean root position per frame, at the framing target's height: what an imported
+// camera is re-aimed at.
+std::vector<Eigen::Vector3d> actors_centre_track(const std::vector<PlacedActor>& actors, int frames, double height) {
+  std::vector<Eigen::Vector3d> track(frames, Eigen::Vector3d::Zero());
+  for (const PlacedActor& actor : actors) {
+    const std::vector<Eigen::Vector2d> roots = root_track(actor.clip, root_joint(actor));
+    for (int f = 0; f < frames; ++f) track[f].head<2>() += roots[f] / static_cast<double>(actors.size());
+  }
+  for (Eigen::Vector3d& point : track) point.z() = height;
+  return track;
+}
+
+// The camera's path before any handheld shake; notes of imported tracks go to `notes`.
+CameraPath camera_rig_path(const SceneCamera& camera, const Scene& scene, const std::vector<PlacedActor>& actors,
+                           const Framing& framing, int frames, std::size_t index, std::vector<std::string>& notes) {
   const std::string who = "camera '" + camera.name + "': ";
+  const double facing_deg = std::atan2(framing.facing.y(), framing.facing.x()) * 180 / std::numbers::pi;
+  if (camera.kind == SceneCamera::Kind::realestate10k || camera.kind == SceneCamera::Kind::colmap) {
+    const io::CameraTrack track = camera.kind == SceneCamera::Kind::realestate10k
+                                      ? io::read_realestate10k(camera.path)
+                                      : io::read_colmap_text(camera.path, camera.source_fps);
+    ImportedCameraOptions options;
+    options.width = camera.width;
+    options.height = camera.height;
+    options.extent_m = camera.extent_m;
+    options.centre = camera.target.value_or(framing.target).head<2>();
+    options.height_m = camera.height_m.value_or(0.9 * framing.height);
+    options.start_angle_deg = camera.start_angle_deg.value_or(facing_deg);
+    options.speed = camera.speed;
+    options.up = camera.up;
+    if (camera.aim_smoothing_s) {
+      options.look_at = actors_centre_track(actors, frames, framing.target.z());
+      options.aim_smoothing_s = *camera.aim_smoothing_s;
+    }
+    std::vector<std::string> track_notes;
+    try {
+      CameraPath path = imported_camera_path(track, frames, scene.fps, options, &track_notes);
+      for (const std::string& note : track_notes) notes.push_back(who + note);
+      return path;
+    } catch (const std::invalid_argument& error) {
+      throw std::invalid_argument(who + error.what());
+    }
+  }
   if (camera.kind == SceneCamera::Kind::file) {
     CameraPath path = io::read_camera_path_json(camera.path);
     if (path.frame_count() != frames || std::abs(path.fps - scene.fps) > 1e-9 * scene.fps) {
@@ -350,15 +401,41 @@ CameraPath make_camera(const SceneCamera& camera, const Scene& scene, const std:
   SeededUniform jitter(scene.seed, 2000 + index);
   const Eigen::Vector3d shake(jitter.between(-1, 1), jitter.between(-1, 1), jitter.between(-1, 1));
   const Eigen::Vector3d offset = camera.jitter_m * shake;
+  // The static camera's default centre: in front of the actors, looking back at `target`.
+  const auto default_centre = [&](const Eigen::Vector3d& target) {
+    return Eigen::Vector3d(target.x() + framing.distance * framing.facing.x(), target.y() + framing.distance * framing.facing.y(),
+                           0.9 * framing.height);
+  };
   try {
     if (camera.kind == SceneCamera::Kind::fixed) {
       StaticCameraOptions options;
       options.target = camera.target.value_or(framing.target);
-      options.centre = camera.position.value_or(Eigen::Vector3d(options.target.x() + framing.distance * framing.facing.x(),
-                                                                options.target.y() + framing.distance * framing.facing.y(),
-                                                                0.9 * framing.height)) +
-                       offset;
+      options.centre = camera.position.value_or(default_centre(options.target)) + offset;
       return static_camera_path(frames, scene.fps, intrinsics, options);
+    }
+    if (camera.kind == SceneCamera::Kind::swoop) {
+      SwoopCameraOptions options;
+      options.target = camera.target.value_or(framing.target);
+      options.radius = camera.radius.value_or(framing.distance);
+      options.start_height = camera.height_m.value_or(0.9 * framing.height);
+      options.end_height = camera.height_end_m.value_or(2.5 * framing.height);
+      options.start_angle_deg = camera.start_angle_deg.value_or(facing_deg);
+      options.sweep_deg = camera.sweep_deg;
+      return swoop_camera_path(frames, scene.fps, intrinsics, options);
+    }
+    if (camera.kind == SceneCamera::Kind::dolly_zoom) {
+      DollyZoomOptions options;
+      options.target = camera.target.value_or(framing.target);
+      options.start_centre = camera.position.value_or(default_centre(options.target));
+      options.end_distance = camera.end_distance.value_or((options.target - options.start_centre).norm() / 2);
+      return dolly_zoom_camera_path(frames, scene.fps, intrinsics, options);
+    }
+    if (camera.kind == SceneCamera::Kind::zoom) {
+      ZoomCameraOptions options;
+      options.target = camera.target.value_or(framing.target);
+      options.centre = camera.position.value_or(default_centre(options.target));
+      options.end_hfov_deg = camera.hfov_end_deg.value_or(camera.hfov_deg / 2);
+      return zoom_camera_path(frames, scene.fps, intrinsics, options);
     }
     if (camera.kind == SceneCamera::Kind::orbit) {
       OrbitCameraOptions options;
@@ -366,11 +443,14 @@ CameraPath make_camera(const SceneCamera& camera, const Scene& scene, const std:
       options.radius = camera.radius.value_or(framing.distance);
       options.height = camera.height_m.value_or(0.9 * framing.height) + offset.z();
       options.period_s = camera.period_s;
-      options.start_angle_deg =
-          camera.start_angle_deg.value_or(std::atan2(framing.facing.y(), framing.facing.x()) * 180 / std::numbers::pi);
+      options.start_angle_deg = camera.start_angle_deg.value_or(facing_deg);
       return orbit_camera_path(frames, scene.fps, intrinsics, options);
     }
     const PlacedActor& actor = actors[camera.actor];
+    if (!actor.retargeted) {
+      throw std::invalid_argument("rides on actor '" + actor.name + "', a " + actor_source_name(actor.motion->kind) +
+                                  " actor: an ego camera needs the head and hips of a retargeted character's bone map");
+    }
     const double height = actor.retargeted->character.rest_bounds().sizes().z();
     EgoHeadOptions options;
     options.forward_offset = camera.eye_forward.value_or(0.06 * height);
@@ -382,7 +462,20 @@ CameraPath make_camera(const SceneCamera& camera, const Scene& scene, const std:
   }
 }
 
-std::vector<skinning::SurfacePoint> sample_actor_points(const SceneActor& spec, const RetargetedActor& actor, int count,
+CameraPath make_camera(const SceneCamera& camera, const Scene& scene, const std::vector<PlacedActor>& actors,
+                       const Framing& framing, int frames, std::size_t index, std::vector<std::string>& notes) {
+  CameraPath path = camera_rig_path(camera, scene, actors, framing, frames, index, notes);
+  if (camera.handheld) {
+    try {
+      apply_handheld(path, *camera.handheld, scene.seed, 4000 + index);
+    } catch (const std::invalid_argument& error) {
+      throw std::invalid_argument("camera '" + camera.name + "': " + error.what());
+    }
+  }
+  return path;
+}
+
+std::vector<skinning::SurfacePoint> sample_actor_points(const SceneActor& spec, const ActorMotion& actor, int count,
                                                         std::uint64_t seed, bool body_only) {
   if (count == 0) return {};
   skinning::SamplingOptions options;
@@ -390,16 +483,13 @@ std::vector<skinning::SurfacePoint> sample_actor_points(const SceneActor& spec, 
   options.count = count;
   options.seed = seed;
   if (body_only) {
-    std::vector<int> wrists;
-    for (int canonical : {retarget::canonical::left_wrist, retarget::canonical::right_wrist}) {
-      if (actor.full_target_map.mapped(canonical)) wrists.push_back(actor.full_target_map.joints[canonical]);
-    }
-    options.region = skinning::JointSet::all(actor.character.skeleton) - skinning::JointSet::below(actor.character.skeleton, wrists);
+    options.region =
+        skinning::JointSet::all(actor.character.skeleton) - skinning::JointSet::below(actor.character.skeleton, actor.wrists);
   }
   try {
     return skinning::sample_surface_points(actor.character, options);
   } catch (const std::invalid_argument& error) {
-    throw io::InputError(spec.retarget.character_path, std::string("cannot sample points: ") + error.what());
+    throw io::InputError(actor.source_path, std::string("cannot sample points: ") + error.what());
   }
 }
 
@@ -419,20 +509,21 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
   // Points are tracked when some camera writes trajectories or a contact sheet.
   const bool tracking = any_path(outputs.trajectories) || any_path(outputs.previews);
 
-  // Retarget each distinct request once.
+  // Build each distinct source once: retarget a motion, play an animation, read an anime.
   auto start = Clock::now();
-  std::map<std::string, std::shared_ptr<const RetargetedActor>> retargeted;
+  std::map<std::string, std::shared_ptr<const ActorMotion>> built;
   for (const SceneActor& actor : scene.actors) {
-    std::shared_ptr<const RetargetedActor>& slot = retargeted[request_key(actor.retarget)];
-    if (!slot) slot = std::make_shared<const RetargetedActor>(retarget_actor(actor.retarget, progress, cache));
+    std::shared_ptr<const ActorMotion>& slot = built[source_key(actor)];
+    if (!slot) slot = std::make_shared<const ActorMotion>(build_motion(actor, progress, cache));
     PlacedActor placed;
     placed.name = actor.name;
-    placed.retargeted = slot;
+    placed.motion = slot;
+    placed.retargeted = slot->retargeted;
     result.actors.push_back(std::move(placed));
   }
   result.seconds.retarget = seconds_since(start);
   for (const SceneActor& actor : scene.actors) {
-    if (actor.retarget.parts == retarget::Parts::body) {
+    if (actor.source == ActorSourceKind::motion && actor.retarget.parts == retarget::Parts::body) {
       result.skipped.push_back("actor '" + actor.name + "': fingers and face not solved (parts body: they keep their rest pose)");
     }
   }
@@ -446,7 +537,7 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
       SeededUniform draw(scene.seed, 3000 + a);
       result.actors[a].start_s = draw.between(spec.start_range->first, spec.start_range->second);
     }
-    end = std::max(end, actor_clip_end(spec, result.actors[a].start_s, result.actors[a].retargeted->clip()));
+    end = std::max(end, actor_clip_end(spec, result.actors[a].start_s, result.actors[a].motion->clip));
   }
   const double seconds = scene.seconds.value_or(end);
   // Every actor's clip is held on the timeline (J quaternions and a root a frame): a shot of days
@@ -463,13 +554,16 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
   for (std::size_t a = 0; a < scene.actors.size(); ++a) {
     const SceneActor& spec = scene.actors[a];
     PlacedActor& actor = result.actors[a];
-    const Clip timed = timed_clip(spec, actor.start_s, actor.retargeted->clip(), frames, scene.fps);
-    const int root = root_joint(*actor.retargeted);
-    const double radius = 0.15 * actor.retargeted->character.rest_bounds().sizes().z();
+    const ActorMotion& motion = *actor.motion;
+    const std::vector<double> times = timeline_times(spec, actor.start_s, motion.clip, frames, scene.fps);
+    const Clip timed = motion.clip.sampled_at(times, scene.fps);
+    if (motion.vertex_animation) actor.vertex_animation = motion.vertex_animation->sampled_at(times, scene.fps);
+    const int root = root_joint(actor);
+    const double radius = 0.15 * motion.character.rest_bounds().sizes().z();
     std::vector<RigidTransform<double>> world(timed.joint_count());
     timed.world_pose(0, world);
     const Eigen::Vector3d start_root(world[root].translation.x(), world[root].translation.y(), 0);
-    const double start_heading = heading_deg(*actor.retargeted, world);
+    const double start_heading = heading_deg(motion, world);
     // Turning by yaw - start_heading about the start root makes the actor face `yaw` there.
     const auto place = [&](double x, double y, double yaw) {
       actor.clip = timed;
@@ -530,7 +624,7 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
   const StreamProps props = build_props(scene.props);
   const Framing framing = frame_actors(result.actors);
   for (std::size_t c = 0; c < scene.cameras.size(); ++c) {
-    result.cameras.push_back(make_camera(scene.cameras[c], scene, result.actors, framing, frames, c));
+    result.cameras.push_back(make_camera(scene.cameras[c], scene, result.actors, framing, frames, c, result.notes));
     result.camera_names.push_back(scene.cameras[c].name);
   }
   result.prop_names = props.names;
@@ -539,15 +633,15 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
   for (std::size_t a = 0; a < scene.actors.size(); ++a) {
     StreamActor& actor = stream_actors[a];
     actor.name = scene.actors[a].name;
-    actor.character = &result.actors[a].retargeted->character;
+    const ActorMotion& motion = *result.actors[a].motion;
+    actor.character = &motion.character;
     actor.clip = &result.actors[a].clip;
+    if (result.actors[a].vertex_animation) actor.vertex_animation = &*result.actors[a].vertex_animation;
     actor.mesh_every_frame = !outputs.point_caches.empty() && !outputs.point_caches[a].empty();
-    const retarget::BoneMap& map = result.actors[a].retargeted->target_map;
-    actor.head_joint = map.mapped(retarget::canonical::head) ? map.joints[retarget::canonical::head] : -1;
+    actor.head_joint = motion.head_joint;
     if (tracking) {
       const int count = scene.actors[a].points.value_or(outputs.points_per_actor);
-      actor.points = sample_actor_points(scene.actors[a], *result.actors[a].retargeted, count, scene.seed + a,
-                                         outputs.body_points_only);
+      actor.points = sample_actor_points(scene.actors[a], motion, count, scene.seed + a, outputs.body_points_only);
       result.actors[a].points = count;
     }
   }
@@ -593,10 +687,10 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
   }
   for (std::size_t a = 0; a < outputs.point_caches.size(); ++a) {
     if (outputs.point_caches[a].empty()) continue;
-    const Character& character = result.actors[a].retargeted->character;
+    const Character& character = result.actors[a].motion->character;
     std::size_t vertices = 0;
     for (const CharacterMesh& mesh : character.meshes) vertices += mesh.positions.size();
-    if (vertices == 0) throw io::InputError(scene.actors[a].retarget.character_path, "the character has no mesh to cache");
+    if (vertices == 0) throw io::InputError(result.actors[a].motion->source_path, "the character has no mesh to cache");
     const std::string obj = a < outputs.rest_objs.size() && !outputs.rest_objs[a].empty() ? outputs.rest_objs[a]
                                                                                           : obj_beside(outputs.point_caches[a]);
     io::write_rest_obj(staged.stage(obj), character);
@@ -651,7 +745,10 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
   }
   if (!outputs.scene_glb.empty()) {
     std::vector<io::SceneGlbActor> glb_actors;
-    for (const PlacedActor& actor : result.actors) glb_actors.push_back({actor.name, &actor.retargeted->character, &actor.clip});
+    for (const PlacedActor& actor : result.actors) {
+      glb_actors.push_back({actor.name, &actor.motion->character, &actor.clip,
+                            actor.vertex_animation ? &*actor.vertex_animation : nullptr});
+    }
     std::vector<io::SceneGlbCamera> glb_cameras;
     for (std::size_t c = 0; c < result.cameras.size(); ++c) glb_cameras.push_back({result.camera_names[c], &result.cameras[c]});
     io::write_scene_glb(staged.stage(outputs.scene_glb), glb_actors, scene.props.empty() ? nullptr : &result.props, glb_cameras,
@@ -665,7 +762,7 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
   result.seconds.total = seconds_since(total_start);
   for (std::size_t a = 0; a < outputs.actor_reports.size(); ++a) {
     if (outputs.actor_reports[a].empty()) continue;
-    nlohmann::ordered_json json = actor_report_json(*result.actors[a].retargeted);
+    nlohmann::ordered_json json = actor_motion_report_json(*result.actors[a].motion);
     json["inputs"]["output"] = outputs.glb.empty() ? nlohmann::ordered_json() : nlohmann::ordered_json(outputs.glb);
     json["settings"]["camera"] = result.cameras.empty() ? nlohmann::ordered_json() : nlohmann::ordered_json(result.cameras[0].kind);
     json["timings_s"]["command"]["write_outputs"] = result.seconds.streams;
@@ -695,7 +792,8 @@ nlohmann::ordered_json scene_report_json(const SceneResult& result) {
     entry["start_s"] = actor.start_s;
     entry["points"] = actor.points;
     if (a < result.streams.actor_mesh_frames.size()) entry["mesh_frames_skinned"] = result.streams.actor_mesh_frames[a];
-    entry["retarget"] = actor_report_json(*actor.retargeted);
+    // A motion's entry keeps its key "retarget"; the other sources report under "source".
+    entry[actor.retargeted ? "retarget" : "source"] = actor_motion_report_json(*actor.motion);
     json["actors"].push_back(entry);
   }
   json["props"] = nlohmann::ordered_json::array();
@@ -722,6 +820,7 @@ nlohmann::ordered_json scene_report_json(const SceneResult& result) {
   }
   json["points"] = result.streams.points;
   json["skipped"] = result.skipped;
+  json["notes"] = result.notes;
   json["outputs"] = result.outputs;
   json["timings_s"] = {{"retarget", result.seconds.retarget},
                        {"streams", result.seconds.streams},

@@ -1,8 +1,9 @@
 // Runs a scene (scene.h) from files to files: every command that writes something from a motion
 // (retarget, trajectories, point-cache, scene, demo) calls run_scene.
 //
-// Steps: validate the scene; retarget each actor (identical requests are retargeted once); put
-// each actor's clip on the scene's timeline and placement; check the footprints; build the props;
+// Steps: validate the scene; build each actor's motion from its source (actor_source.h: a motion
+// retargeted, a character's own animation played, a .anime mesh read; identical requests are built
+// once); put each actor's clip (and an anime's vertices) on the scene's timeline and placement; check the footprints; build the props;
 // make every camera's path; sample tracked points (actor k with seed + k, the props with
 // seed + 1000); run the frame loop (streams.h) into the sinks of the outputs asked for; write the
 // camera paths, the GLB and the report; then commit every output together (io::StagedOutputs): on
@@ -25,6 +26,7 @@
 
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -36,8 +38,11 @@ namespace odyssey::scene {
 
 struct PlacedActor {
   std::string name;
-  std::shared_ptr<const RetargetedActor> retargeted;  // shared by actors of identical requests
+  std::shared_ptr<const ActorMotion> motion;          // shared by actors of identical requests
+  std::shared_ptr<const RetargetedActor> retargeted;  // a motion's retargeting (motion->retargeted), else null
   Clip clip;                   // on the scene's timeline and placement
+  // Anime: the mesh's vertices every scene frame, in clip joint 0's frame (actor_source.h).
+  std::optional<MeshAnimation> vertex_animation;
   double x = 0, y = 0, yaw_deg = 0;  // where the root starts and the direction the actor faces there
   double turn_deg = 0;               // the turn the placement gave the recorded motion
   double start_s = 0;                // the start used (drawn when the scene gave a range)
@@ -56,6 +61,7 @@ struct SceneResult {
   Character props;                    // every prop as a mesh in world coordinates (mesh k: prop k)
   StreamSummary streams;
   std::vector<std::string> skipped;   // work not done, one line each
+  std::vector<std::string> notes;     // what an input held that the outputs do not carry (a lens distortion), one line each
   std::vector<std::string> outputs;   // files written
   struct {
     double retarget = 0, streams = 0, total = 0;

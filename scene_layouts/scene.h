@@ -1,4 +1,5 @@
-// A shot: actors (a motion retargeted onto a character, placed in time and on the floor), props
+// A shot: actors (a motion retargeted onto a character, a character's own animation, or a
+// vertex-animated mesh: actor_source.h; each placed in time and on the floor), props
 // (static rigid geometry), cameras, and the outputs asked for. run_scene (pipeline.h) runs it;
 // scene_file.h reads it from JSON; the single-actor commands build a one-actor scene.
 //
@@ -32,6 +33,8 @@
 #include <vector>
 
 #include "scene_layouts/actor.h"
+#include "scene_layouts/actor_source.h"
+#include "scene_layouts/camera_rigs.h"
 #include "skinning/sampling.h"
 
 namespace odyssey::scene {
@@ -45,7 +48,12 @@ struct Placement {
 
 struct SceneActor {
   std::string name;  // unique in the scene; names its output files
+  // What drives it (actor_source.h): `retarget` for a motion, `animation` for a character's own
+  // animation, `anime` for a DeformingThings4D mesh; only the source's request is read.
+  ActorSourceKind source = ActorSourceKind::motion;
   RetargetRequest retarget;
+  AnimationRequest animation;
+  AnimeRequest anime;
   Placement placement;
   double start_s = 0;                   // scene time at which the (trimmed) clip starts
   // When set, start_s is drawn uniformly in [first, second] from the scene's seed instead.
@@ -69,7 +77,9 @@ struct Prop {
 };
 
 struct SceneCamera {
-  enum class Kind { fixed, orbit, ego, file };  // fixed is the file format's "static"
+  // fixed is the file format's "static"; realestate10k and colmap are tracks from real video
+  // (scene_layouts/imported_camera.h); swoop, dolly_zoom and zoom are cinematic rigs (camera_rigs.h).
+  enum class Kind { fixed, orbit, ego, file, swoop, dolly_zoom, zoom, realestate10k, colmap };
   Kind kind = Kind::fixed;
   std::string name;  // unique in the scene; names its output files
   int width = 960, height = 540;
@@ -82,8 +92,28 @@ struct SceneCamera {
   int actor = 0;
   std::optional<double> eye_forward, eye_up;
   double smoothing_s = 0;
-  // File: a camera path JSON with one frame per scene frame.
+  // File: a camera path JSON with one frame per scene frame; realestate10k: the camera file;
+  // colmap: the text model's folder.
   std::string path;
+  // Swoop: from height_m (default 0.9 of the tallest actor) to height_end_m (default 2.5 of it)
+  // while turning sweep_deg about the target.
+  std::optional<double> height_end_m;
+  double sweep_deg = 90;
+  // Dolly-zoom: distance from the target at the last frame (default half the first's).
+  std::optional<double> end_distance;
+  // Zoom: horizontal field of view at the last frame (default half of hfov_deg).
+  std::optional<double> hfov_end_deg;
+  // Imported tracks: the circle the path fits (height_m, when set, is the centres' mean height;
+  // start_angle the direction to the first camera), track seconds per scene second, the rate of
+  // COLMAP's images, the track's up (default estimated), and, when set, the sigma in seconds of
+  // the smoothed look-at point on the actors the camera is re-aimed at.
+  double extent_m = 8;
+  double speed = 1;
+  double source_fps = 30;
+  std::optional<Eigen::Vector3d> up;
+  std::optional<double> aim_smoothing_s;
+  // Seeded handheld shake on top of any of the above (drawn from the scene's seed).
+  std::optional<HandheldOptions> handheld;
   // Seeded jitter (metres, each axis uniform in [-jitter, jitter], drawn once per camera from the
   // scene's seed) of a static camera's centre, or of an orbit's target and height.
   double jitter_m = 0;

@@ -179,7 +179,8 @@ Prop read_prop(const JsonValue& item, std::size_t index, const fs::path& base) {
 SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vector<SceneActor>& actors,
                         const fs::path& base) {
   item.allow_only({"name", "type", "width", "height", "hfov", "position", "target", "radius", "height_m", "period",
-                   "start_angle", "actor", "eye_forward", "eye_up", "smoothing", "path", "jitter"});
+                   "start_angle", "actor", "eye_forward", "eye_up", "smoothing", "path", "jitter", "height_end", "sweep",
+                   "end_distance", "hfov_end", "extent", "speed", "fps", "up", "aim", "handheld"});
   SceneCamera camera;
   camera.name = name_of(item, "camera" + std::to_string(index));
   const JsonValue type = item.member("type");
@@ -188,6 +189,12 @@ SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vec
   const std::set<std::string> orbit_keys{"target", "radius", "height_m", "period", "start_angle", "jitter"};
   const std::set<std::string> ego_keys{"actor", "eye_forward", "eye_up", "smoothing"};
   const std::set<std::string> file_keys{"path"};
+  const std::set<std::string> swoop_keys{"target", "radius", "height_m", "height_end", "start_angle", "sweep"};
+  const std::set<std::string> dolly_zoom_keys{"position", "target", "end_distance"};
+  const std::set<std::string> zoom_keys{"position", "target", "hfov_end"};
+  const std::set<std::string> realestate10k_keys{"path", "extent", "target", "height_m", "start_angle", "speed", "up", "aim"};
+  std::set<std::string> colmap_keys = realestate10k_keys;
+  colmap_keys.insert("fps");
   const std::set<std::string>* allowed = nullptr;
   if (kind == "static") {
     camera.kind = SceneCamera::Kind::fixed;
@@ -201,11 +208,29 @@ SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vec
   } else if (kind == "file") {
     camera.kind = SceneCamera::Kind::file;
     allowed = &file_keys;
+  } else if (kind == "swoop") {
+    camera.kind = SceneCamera::Kind::swoop;
+    allowed = &swoop_keys;
+  } else if (kind == "dolly-zoom") {
+    camera.kind = SceneCamera::Kind::dolly_zoom;
+    allowed = &dolly_zoom_keys;
+  } else if (kind == "zoom") {
+    camera.kind = SceneCamera::Kind::zoom;
+    allowed = &zoom_keys;
+  } else if (kind == "realestate10k") {
+    camera.kind = SceneCamera::Kind::realestate10k;
+    allowed = &realestate10k_keys;
+  } else if (kind == "colmap") {
+    camera.kind = SceneCamera::Kind::colmap;
+    allowed = &colmap_keys;
   } else {
-    type.fail("expected static, orbit, ego or file");
+    type.fail("expected static, orbit, ego, file, swoop, dolly-zoom, zoom, realestate10k or colmap");
   }
+  const bool imported = kind == "realestate10k" || kind == "colmap";
   for (const auto& [key, value] : item.raw().items()) {
-    const bool shared = key == "name" || key == "type" || (kind != "file" && (key == "width" || key == "height" || key == "hfov"));
+    // Imported tracks carry their own intrinsics: only the output image size is the scene's.
+    const bool shared = key == "name" || key == "type" || key == "handheld" ||
+                        (kind != "file" && (key == "width" || key == "height" || (key == "hfov" && !imported)));
     if (!shared && !allowed->contains(key)) item.member(key).fail("not a key of a " + kind + " camera");
   }
   if (const auto value = item.find("width")) camera.width = static_cast<int>(value->integer(1, 1 << 16));
@@ -239,8 +264,36 @@ SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vec
   if (const auto value = item.find("eye_up")) camera.eye_up = value->number();
   if (const auto value = item.find("smoothing")) camera.smoothing_s = value->number_in(0, 1e3);
   if (const auto value = item.find("path")) camera.path = resolve(*value, base);
-  if (kind == "file" && camera.path.empty()) item.member("path").fail("missing");
+  if ((kind == "file" || imported) && camera.path.empty()) item.member("path").fail("missing");
   if (const auto value = item.find("jitter")) camera.jitter_m = value->number_in(0, 1e3);
+  if (const auto value = item.find("height_end")) camera.height_end_m = value->number();
+  if (const auto value = item.find("sweep")) camera.sweep_deg = value->number_in(-1e5, 1e5);
+  if (const auto value = item.find("end_distance")) camera.end_distance = value->number_in(1e-6, 1e6);
+  if (const auto value = item.find("hfov_end")) {
+    camera.hfov_end_deg = value->number();
+    if (!(*camera.hfov_end_deg > 0 && *camera.hfov_end_deg < 180)) value->fail("expected degrees between 0 and 180");
+  }
+  if (const auto value = item.find("extent")) camera.extent_m = value->number_in(1e-6, 1e6);
+  if (const auto value = item.find("speed")) camera.speed = value->number_in(1e-3, 1e3);
+  if (const auto value = item.find("fps")) camera.source_fps = value->number_in(1e-3, 1e4);
+  if (const auto value = item.find("up")) {
+    camera.up = vector3(*value);
+    if (!(camera.up->norm() > 0)) value->fail("the up direction must not be zero");
+  }
+  if (const auto value = item.find("aim")) camera.aim_smoothing_s = value->number_in(0, 1e3);
+  if (const auto value = item.find("handheld")) {
+    value->allow_only({"amplitude", "rotation", "band"});
+    HandheldOptions handheld;
+    if (const auto amplitude = value->find("amplitude")) handheld.amplitude_m = amplitude->number_in(0, 1e3);
+    if (const auto rotation = value->find("rotation")) handheld.rotation_deg = rotation->number_in(0, 45);
+    if (const auto band = value->find("band")) {
+      if (band->size() != 2) band->fail("expected [low, high] in Hz");
+      handheld.low_hz = (*band)[0].number_in(1e-6, 1e6);
+      handheld.high_hz = (*band)[1].number_in(1e-6, 1e6);
+      if (handheld.high_hz < handheld.low_hz) (*band)[1].fail("the band's high end lies below its low end");
+    }
+    camera.handheld = handheld;
+  }
   return camera;
 }
 
