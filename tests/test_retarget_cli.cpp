@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "mocap_io/amass.h"
+#include "mocap_io/bvh.h"
 #include "mocap_io/gltf_character.h"
 #include "mocap_io/npy.h"
 #include "retarget/parts.h"
@@ -40,6 +41,7 @@
 #include "skeleton/synthetic_body.h"
 #include "test_support.h"
 #include "gltf_validator.h"
+#include "derived_characters.h"
 
 namespace odyssey::retarget {
 namespace {
@@ -183,6 +185,57 @@ INSTANTIATE_TEST_SUITE_P(Humanoids, RetargetCliTest, testing::ValuesIn(cli_cases
   return info.param.motion + "_" + fs::path(info.param.character).stem().string();
 });
 
+// The CMU walk, units left to `auto`, onto a character of every rig convention: the shared
+// Rigify, KayKit, RobotExpressive, RiggedFigure and CesiumMan, and the Unreal-named and VRM
+// characters derived from them. Each is found humanoid by the map named, the walk is read in
+// CMU units, and every limb follows the source: at fast within 0.1 degree on average (the
+// transfer copies directions exactly), at balanced within 2 degrees (RobotExpressive, whose
+// one-joint IK feet the refinement places by position, 3). The numbers are printed.
+TEST(RetargetCliTest, CmuWalkWithInferredUnitsOnEveryRigConvention) {
+  const fs::path dir = scratch("conventions");
+  struct Case {
+    std::string character, map_origin;
+    double balanced_bound_deg = 2.0;
+  };
+  const std::vector<Case> cases = {
+      {character_path("male_base_mesh.glb"), "joint names"},
+      {character_path("kaykit_mannequin/manny_med_mod.gltf"), "joint names"},
+      {character_path("RobotExpressive.glb"), "preset robot_expressive", 3.0},
+      {character_path("RiggedFigure.glb"), "preset rigged_figure"},
+      {character_path("CesiumMan.glb"), "preset cesium_man"},
+      {test_support::unreal_character(dir), "joint names"},
+      {test_support::vrm0_character(dir), "VRM 0.x humanoid declared in the file"},
+      {test_support::vrm1_character(dir), "VRM 1.0 humanoid declared in the file"},
+  };
+  for (const Case& c : cases) {
+    for (const char* quality : {"fast", "balanced"}) {
+      const std::string stem = fs::path(c.character).stem().string() + "_" + quality;
+      const fs::path out = scratch(stem + ".glb"), report_path = scratch(stem + ".json");
+      const Result result = run("retarget --motion " + kWalkBvh + " --character " + c.character + " --quality " + quality +
+                                " --out " + out.string() + " --report " + report_path.string());
+      ASSERT_EQ(result.exit_code, 0) << result.output;
+      EXPECT_TRUE(contains(result.output, "units      cmu (0.056444 m per unit, inferred: ")) << result.output;
+      const nlohmann::json report = nlohmann::json::parse(read_text(report_path));
+      EXPECT_EQ(report["inputs"]["bvh_units"]["unit"], "cmu");
+      EXPECT_EQ(report["inputs"]["bvh_units"]["inferred"], true);
+      EXPECT_EQ(report["inputs"]["bvh_metres_per_unit"].get<double>(), io::kCmuMetresPerUnit);
+      EXPECT_EQ(report["target"]["map"], c.map_origin) << c.character;
+      const nlohmann::json& metrics = report["metrics"]["result"];
+      std::printf("%-28s %-8s limbs (mean deg):", fs::path(c.character).filename().c_str(), quality);
+      for (const auto& [limb, error] : metrics["limb_direction_deg"].items()) {
+        std::printf(" %s %.2f", limb.c_str(), error["mean"].get<double>());
+        EXPECT_LT(error["mean"].get<double>(), std::string(quality) == "fast" ? 0.1 : c.balanced_bound_deg) << c.character << " " << limb;
+      }
+      std::printf(" | skate %.3f (GMD %.3f, source %.3f) | scale %.3f\n", metrics["foot_skate_ratio"].get<double>(),
+                  metrics["foot_skate_ratio_gmd"].get<double>(), report["metrics"]["source"]["foot_skate_ratio"].get<double>(),
+                  report["scale"].get<double>());
+      for (const char* limb : {"left_leg", "right_leg", "left_arm", "right_arm", "spine"}) {
+        EXPECT_TRUE(metrics["limb_direction_deg"].contains(limb)) << c.character << " " << limb;
+      }
+    }
+  }
+}
+
 // Quality balanced runs the Ceres refinement (retarget/refine.h) and says so in the report.
 TEST(RetargetCliTest, BalancedQualityRefines) {
   const fs::path out = scratch("balanced.glb"), report_path = scratch("balanced.json");
@@ -246,7 +299,7 @@ TEST(RetargetCliTest, HelpDocumentsEveryOptionAndDefault) {
                              "--camera", "--camera-path", "--hfov"}) {
     EXPECT_TRUE(contains(help.output, option)) << option;
   }
-  for (const char* text : {"(default: fast)", "(default: body)", "(default: 30)", "(default: rest)", "(default: cm)",
+  for (const char* text : {"(default: fast)", "(default: body)", "(default: 30)", "(default: rest)", "(default: auto)",
                            "synthetic SMPL-X body", "body+hands", "first-frame", "accurate"}) {
     EXPECT_TRUE(contains(help.output, text)) << text;
   }
