@@ -157,7 +157,7 @@ std::map<long long, ColmapCamera> read_colmap_cameras(const std::string& path) {
     ColmapCamera camera;
     const double fx = p[0], fy = model->second.one_focal ? p[0] : p[1];
     const std::size_t principal = model->second.one_focal ? 1 : 2;
-    if (!(fx > 0 && fy > 0)) line.fail("focal length " + std::to_string(fx <= 0 ? fx : fy) + " is not positive");
+    if (!(fx > 0 && fy > 0)) line.fail("focal length " + std::string(f[fx > 0 ? 5 : 4]) + " is not positive");
     camera.fx = fx / double(width);
     camera.fy = fy / double(height);
     camera.cx = p[principal] / double(width);
