@@ -69,6 +69,10 @@ void add_camera_options(Args& args, const std::string& default_kind) {
       .option("hfov-end", "DEG", "zoom: horizontal field of view at the last frame (default: half of --hfov)")
       .option("camera-extent", "M", "realestate10k, colmap: the path is rescaled to fit a circle this wide about the character",
               "8")
+      .option("camera-anchor", "WHICH",
+              "realestate10k, colmap: the point of the path put on the character: centroid (the cameras' mean, for "
+              "walk-throughs) or focus (the point the cameras look at, for captures circling a subject)",
+              "centroid")
       .option("camera-speed", "X", "realestate10k, colmap: track seconds per output second", "1")
       .option("camera-fps", "FPS", "colmap: the rate the images were taken at (they are ordered by name)", "30")
       .option("camera-aim", "S",
@@ -157,6 +161,9 @@ std::optional<scene::SceneCamera> camera_from_options(const Args& args) {
     camera.kind = kind == "colmap" ? scene::SceneCamera::Kind::colmap : scene::SceneCamera::Kind::realestate10k;
     camera.path = args.get("camera-file");
     camera.extent_m = positive(args, "camera-extent");
+    const std::string anchor = args.get("camera-anchor");
+    if (anchor != "centroid" && anchor != "focus") throw UsageError("--camera-anchor expects centroid or focus, got '" + anchor + "'");
+    camera.anchor_focus = anchor == "focus";
     camera.speed = positive(args, "camera-speed");
     camera.source_fps = positive(args, "camera-fps");
     if (args.has("camera-height")) camera.height_m = args.get_double("camera-height");

@@ -1,5 +1,6 @@
 #include "scene_layouts/imported_camera.h"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -109,6 +110,27 @@ CameraPath imported_camera_path(const io::CameraTrack& track, int frames, double
     mean += levelled[f];
   }
   mean /= frames;
+  if (options.anchor == ImportedCameraOptions::Anchor::focus) {
+    // The point nearest every view axis: minimise sum_f |P_f (p - c_f)|^2 with P_f = I - v_f v_f^T
+    // (v_f the view direction), so (sum P_f) p = sum P_f c_f. Near-parallel axes leave sum P_f
+    // without the rank to fix p along them.
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d right_side = Eigen::Vector3d::Zero();
+    for (int f = 0; f < frames; ++f) {
+      const Eigen::Vector3d view = level * (samples[f].rotation.conjugate() * Eigen::Vector3d::UnitZ());
+      const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - view * view.transpose();
+      normal += across;
+      right_side += across * levelled[f];
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> spread(normal);
+    // The smallest eigenvalue over the frames is about the mean squared sine of the axes' spread.
+    if (!(spread.eigenvalues()[0] > 1e-3 * frames)) {
+      throw io::InputError(track.path, "the cameras' view axes do not converge on a point (they are nearly parallel): "
+                                       "anchor the path on its centroid instead");
+    }
+    const Eigen::Vector3d focus = normal.ldlt().solve(right_side);
+    mean.head<2>() = focus.head<2>();
+  }
   double reach = 0;
   for (const Eigen::Vector3d& c : levelled) reach = std::max(reach, (c - mean).head<2>().norm());
   if (!(reach > 1e-12 * (1 + mean.norm()))) {

@@ -11,13 +11,17 @@
 //    k and k+1, with w = (tau - t_k) / (t_{k+1} - t_k): the orientation is slerp(q_k, q_{k+1}, w),
 //    the centre (1 - w) c_k + w c_{k+1}, and the normalised intrinsics interpolate linearly too.
 //    Frames after the track's end hold its last camera (a note says how many).
-// 3. Placement. With the resampled centres levelled by L, m their horizontal mean and r the
+// 3. Placement. With the resampled centres levelled by L, m their anchor (horizontal) and r the
 //    largest horizontal distance of one from m, the track's world maps to the scene's by
 //      x' = s Y L x + T,  s = (extent / 2) / r,
 //    Y the turn about z that points the direction from m to the first centre at start_angle (when
 //    the first centre is at m: the first camera's horizontal view at start_angle + 180 degrees),
 //    and T putting m at `centre` and the centres' mean height at `height`. So the path fits a
-//    circle of diameter `extent` about `centre`, touching it. A camera becomes
+//    circle of diameter `extent` about `centre`, touching it. The anchor m is the centres' mean
+//    (centroid: for walk-throughs, whose middle then passes the actors) or the focus, the point
+//    nearest all the cameras' view axes in the least-squares sense (for captures that circle
+//    their subject, as COLMAP's and the Mannequin Challenge's do: the actors take the subject's
+//    place). Axes too close to parallel to meet are an error. A camera becomes
 //      c' = s Y L c + T,  R' = R (Y L)^T
 //    (scaling the world moves the centres only; turning it turns the cameras with it).
 // 4. Aim (when look-at points are given). Each camera is turned to look at its frame's look-at
@@ -28,8 +32,10 @@
 // cy = cy_n H. When W:H differs from the source's aspect the pixels come out non-square, and a
 // note says so.
 //
-// Errors: io::InputError naming the track's file when its cameras' up axes cancel out or it does
-// not move horizontally during the shot (nothing to rescale); std::invalid_argument naming the
+// Errors: io::InputError naming the track's file when its cameras' up axes cancel out, it does
+// not move horizontally during the shot (nothing to rescale) or, anchored on the focus, its view
+// axes are nearly parallel (the least-squares system's smallest eigenvalue under 1e-3 per
+// frame, about 1.8 degrees of spread); std::invalid_argument naming the
 // option for bad options, and naming the frame when a camera sits on its look-at point.
 #pragma once
 
@@ -44,7 +50,9 @@
 namespace odyssey::scene {
 
 struct ImportedCameraOptions {
+  enum class Anchor { centroid, focus };
   int width = 960, height = 540;                      // the output image
+  Anchor anchor = Anchor::centroid;                   // the point of the path put on `centre`
   double extent_m = 8;                                // diameter of the circle the path fits, > 0
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();   // where the path's horizontal mean goes
   double height_m = 1.5;                              // the centres' mean height

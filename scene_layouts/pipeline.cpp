@@ -365,6 +365,7 @@ CameraPath camera_rig_path(const SceneCamera& camera, const Scene& scene, const 
     options.width = camera.width;
     options.height = camera.height;
     options.extent_m = camera.extent_m;
+    options.anchor = camera.anchor_focus ? ImportedCameraOptions::Anchor::focus : ImportedCameraOptions::Anchor::centroid;
     options.centre = camera.target.value_or(framing.target).head<2>();
     options.height_m = camera.height_m.value_or(0.9 * framing.height);
     options.start_angle_deg = camera.start_angle_deg.value_or(facing_deg);

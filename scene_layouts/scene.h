@@ -108,6 +108,7 @@ struct SceneCamera {
   // COLMAP's images, the track's up (default estimated), and, when set, the sigma in seconds of
   // the smoothed look-at point on the actors the camera is re-aimed at.
   double extent_m = 8;
+  bool anchor_focus = false;  // anchor the path on its cameras' focus, not its centroid
   double speed = 1;
   double source_fps = 30;
   std::optional<Eigen::Vector3d> up;

@@ -180,7 +180,7 @@ SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vec
                         const fs::path& base) {
   item.allow_only({"name", "type", "width", "height", "hfov", "position", "target", "radius", "height_m", "period",
                    "start_angle", "actor", "eye_forward", "eye_up", "smoothing", "path", "jitter", "height_end", "sweep",
-                   "end_distance", "hfov_end", "extent", "speed", "fps", "up", "aim", "handheld"});
+                   "end_distance", "hfov_end", "extent", "anchor", "speed", "fps", "up", "aim", "handheld"});
   SceneCamera camera;
   camera.name = name_of(item, "camera" + std::to_string(index));
   const JsonValue type = item.member("type");
@@ -192,7 +192,7 @@ SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vec
   const std::set<std::string> swoop_keys{"target", "radius", "height_m", "height_end", "start_angle", "sweep"};
   const std::set<std::string> dolly_zoom_keys{"position", "target", "end_distance"};
   const std::set<std::string> zoom_keys{"position", "target", "hfov_end"};
-  const std::set<std::string> realestate10k_keys{"path", "extent", "target", "height_m", "start_angle", "speed", "up", "aim"};
+  const std::set<std::string> realestate10k_keys{"path", "extent", "anchor", "target", "height_m", "start_angle", "speed", "up", "aim"};
   std::set<std::string> colmap_keys = realestate10k_keys;
   colmap_keys.insert("fps");
   const std::set<std::string>* allowed = nullptr;
@@ -274,6 +274,11 @@ SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vec
     if (!(*camera.hfov_end_deg > 0 && *camera.hfov_end_deg < 180)) value->fail("expected degrees between 0 and 180");
   }
   if (const auto value = item.find("extent")) camera.extent_m = value->number_in(1e-6, 1e6);
+  if (const auto value = item.find("anchor")) {
+    const std::string anchor = value->string();
+    if (anchor != "centroid" && anchor != "focus") value->fail("expected centroid or focus");
+    camera.anchor_focus = anchor == "focus";
+  }
   if (const auto value = item.find("speed")) camera.speed = value->number_in(1e-3, 1e3);
   if (const auto value = item.find("fps")) camera.source_fps = value->number_in(1e-3, 1e4);
   if (const auto value = item.find("up")) {

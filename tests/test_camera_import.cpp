@@ -385,6 +385,46 @@ TEST(CameraImportErrorsTest, BadFilesAreNamedWithTheirLineAndProblem) {
   EXPECT_TRUE(contains(missing, "cameras.txt: cannot open")) << missing;
 }
 
+// Six cameras on a circle of radius 3 about (5, 1, -2) of a y-up world, each looking at that point
+// (turntable capture): anchored on the focus, the point goes to the centre, so with extent 8 every
+// camera sits 4 m from (1, 2) and looks straight at it.
+TEST(ImportedCameraTest, FocusAnchorPutsThePointTheCamerasLookAtOnTheCentre) {
+  const Vector3d subject(5, 1, -2);
+  std::string text = "https://example.com/turntable\n";
+  for (int k = 0; k < 6; ++k) {
+    const double angle = 0.5 * k;  // 2.5 rad of a turn, so the centroid is off the subject
+    const Vector3d centre = subject + 3 * Vector3d(std::cos(angle), 0, -std::sin(angle));
+    // Heading about +y from +x to the subject: the view is -(cos a, 0, -sin a) = Ry(a + pi) e_x.
+    text += realestate_line(100000LL * k, 0.5, 0.9, upright_camera(centre, angle + kPi)) + "\n";
+  }
+  const fs::path file = write_file(test_support::scratch_dir("camera_import") / "turntable.txt", text);
+  const io::CameraTrack track = io::read_realestate10k(file.string());
+  scene::ImportedCameraOptions options;
+  options.anchor = scene::ImportedCameraOptions::Anchor::focus;
+  options.centre = Eigen::Vector2d(1, 2);
+  options.height_m = 1.2;
+  const CameraPath path = scene::imported_camera_path(track, 6, 10, options);
+  for (int f = 0; f < 6; ++f) {
+    const Vector3d c = path.poses[f].centre();
+    EXPECT_NEAR((c.head<2>() - options.centre).norm(), 4, 1e-9) << "frame " << f;
+    EXPECT_NEAR(c.z(), 1.2, 1e-9);
+    EXPECT_LT((path.poses[f].forward() - (Vector3d(1, 2, 1.2) - c).normalized()).norm(), 1e-9) << "frame " << f;
+  }
+  // Anchored on the centroid instead, the cameras are not all 4 m away.
+  options.anchor = scene::ImportedCameraOptions::Anchor::centroid;
+  const CameraPath centroid = scene::imported_camera_path(track, 6, 10, options);
+  EXPECT_GT(std::abs((centroid.poses[0].centre().head<2>() - options.centre).norm() -
+                     (centroid.poses[2].centre().head<2>() - options.centre).norm()), 0.5);
+  // Parallel view axes (a straight walk looking ahead) have no focus.
+  std::string walk = "u\n";
+  for (int k = 0; k < 4; ++k) walk += realestate_line(100000LL * k, 0.5, 0.9, upright_camera(Vector3d(k, 0, 0), 0)) + "\n";
+  const fs::path straight = write_file(test_support::scratch_dir("camera_import") / "straight.txt", walk);
+  options.anchor = scene::ImportedCameraOptions::Anchor::focus;
+  const std::string message = test_support::message_of<io::InputError>(
+      [&] { scene::imported_camera_path(io::read_realestate10k(straight.string()), 4, 10, options); });
+  EXPECT_TRUE(contains(message, "straight.txt: the cameras' view axes do not converge")) << message;
+}
+
 // A track that stands still horizontally has nothing to rescale.
 TEST(ImportedCameraTest, AStillTrackIsAnErrorNamingTheFile) {
   const std::string text = "u\n" + realestate_line(0, 0.5, 0.9, upright_camera(Vector3d(1, 0, 1), 0)) + "\n" +
