@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "cli/actor_options.h"
 #include "cli/args.h"
 #include "cli/commands.h"
 #include "cli/retarget_options.h"
@@ -22,16 +23,17 @@ int run_point_cache(const std::vector<std::string>& arguments) {
             "the OBJ with Z up and Y forward and give the Mesh Cache modifier the same axes). Frames are\n"
             "skinned and written in chunks: memory does not grow with the clip.");
   add_retarget_options(args);
+  add_actor_source_options(args);
   args.option("out", "FILE", "output PC2 point cache (required)")
       .option("obj", "FILE", "the rest mesh (default: the --out path with .obj)");
   if (!args.parse(arguments)) return 0;
+  if (list_animations_if_asked(args)) return 0;
 
   scene::Scene scene;
-  scene::SceneActor actor;
-  actor.retarget = retarget_request_from(args);
-  actor.name = std::filesystem::path(actor.retarget.character_path).stem().string();
-  scene.fps = actor.retarget.fps;
-  scene.outputs.threads = actor.retarget.refine_options.threads;
+  scene::SceneActor actor = actor_from_options(args);
+  scene.fps = actor.source == scene::ActorSourceKind::motion ? actor.retarget.fps : args.get_double("fps");
+  scene.outputs.threads = actor.source == scene::ActorSourceKind::motion ? actor.retarget.refine_options.threads
+                                                                         : thread_count(args);
   scene.actors.push_back(std::move(actor));
   const std::string out_path = args.get("out");
   const std::string obj_path =
@@ -44,12 +46,12 @@ int run_point_cache(const std::vector<std::string>& arguments) {
 
   const scene::SceneResult result = scene::run_scene(scene, print_progress);
   std::size_t vertices = 0;
-  for (const CharacterMesh& mesh : result.actors[0].retargeted->character.meshes) vertices += mesh.positions.size();
+  for (const CharacterMesh& mesh : result.actors[0].motion->character.meshes) vertices += mesh.positions.size();
   const double seconds = result.seconds.streams;
   std::printf("cache      %zu vertices x %d frames in %.3f s (%.0f frames/s, %.3g vertex-frames/s: skinning and writing)\n",
               vertices, result.frames, seconds, seconds > 0 ? result.frames / seconds : 0.0,
               seconds > 0 ? vertices * result.frames / seconds : 0.0);
-  std::printf("timings    %s\n", scene::actor_timings(*result.actors[0].retargeted).c_str());
+  std::printf("timings    %s\n", actor_timings_line(result.actors[0]).c_str());
   std::printf("wrote      %s (%d frames at %.6g fps), %s\n", out_path.c_str(), result.frames, result.fps, obj_path.c_str());
   return 0;
 }

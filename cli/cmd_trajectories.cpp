@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "cli/actor_options.h"
 #include "cli/args.h"
 #include "cli/camera_options.h"
 #include "cli/commands.h"
@@ -30,6 +31,7 @@ int run_trajectories(const std::vector<std::string>& arguments) {
             "or file camera inside the character (within the box of the tracked points) is an error naming the\n"
             "frame. On any error nothing is written. For several actors, props and cameras: odyssey scene.");
   add_retarget_options(args);
+  add_actor_source_options(args);
   args.option("out", "FILE", "output annotation npz (required)")
       .option("points", "N", "surface points to track", "5000")
       .option("seed", "S", "seed of the point sampling", "0")
@@ -41,12 +43,11 @@ int run_trajectories(const std::vector<std::string>& arguments) {
       .flag("compress", "deflate the npz members (smaller, several times slower to write)");
   add_camera_options(args, "static");
   if (!args.parse(arguments)) return 0;
+  if (list_animations_if_asked(args)) return 0;
 
   scene::Scene scene;
-  scene::SceneActor actor;
-  actor.retarget = retarget_request_from(args);
-  actor.name = std::filesystem::path(actor.retarget.character_path).stem().string();
-  scene.fps = actor.retarget.fps;
+  scene::SceneActor actor = actor_from_options(args);
+  scene.fps = actor.source == scene::ActorSourceKind::motion ? actor.retarget.fps : args.get_double("fps");
   const long long points = args.get_int("points");
   if (points < 1 || points > 100'000'000) throw UsageError("--points expects 1 to 100000000, got " + args.get("points"));
   actor.points = static_cast<int>(points);
@@ -64,7 +65,8 @@ int run_trajectories(const std::vector<std::string>& arguments) {
   const long long chunk_frames = args.get_int("chunk-frames");
   if (chunk_frames < 0 || chunk_frames > 100000) throw UsageError("--chunk-frames expects 0 to 100000");
   scene.outputs.chunk_frames = static_cast<int>(chunk_frames);
-  scene.outputs.threads = actor.retarget.refine_options.threads;
+  scene.outputs.threads = actor.source == scene::ActorSourceKind::motion ? actor.retarget.refine_options.threads
+                                                                         : thread_count(args);
   scene.outputs.compress = args.get_flag("compress");
   if (args.get("camera") == "none") throw UsageError("trajectories need a camera: --camera static, orbit, ego, file, swoop, dolly-zoom, zoom, realestate10k or colmap");
   scene.cameras.push_back(*camera_from_options(args));
@@ -87,7 +89,7 @@ int run_trajectories(const std::vector<std::string>& arguments) {
   std::printf("export     %zu frames in %.3f s (%.0f frames/s: skinning, depth buffer, projection, writing)\n",
               result.streams.frames, result.seconds.streams,
               result.seconds.streams > 0 ? result.streams.frames / result.seconds.streams : 0.0);
-  std::printf("timings    %s\n", scene::actor_timings(*result.actors[0].retargeted).c_str());
+  std::printf("timings    %s\n", actor_timings_line(result.actors[0]).c_str());
   std::printf("wrote      %s (%d frames at %.6g fps)%s%s\n", scene.outputs.trajectories[0].c_str(), result.frames,
               result.fps, scene.outputs.camera_paths.empty() ? "" : ", ",
               scene.outputs.camera_paths.empty() ? "" : scene.outputs.camera_paths[0].c_str());

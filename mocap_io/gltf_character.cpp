@@ -352,8 +352,126 @@ class CharacterReader {
     return summary;
   }
 
+  // The node hierarchy and the channels of the animation called `name`, for load_gltf_animation().
+  NodeAnimation read_animation(const std::string& name) {
+    check_required_extensions();
+    check_node_references();
+    build_hierarchy();
+    std::vector<std::string> names;
+    int index = -1;
+    for (std::size_t a = 0; a < model_.animations.size(); ++a) {
+      names.push_back(model_.animations[a].name.empty() ? "animation_" + std::to_string(a) : model_.animations[a].name);
+      if (names.back() == name && index < 0) index = static_cast<int>(a);
+    }
+    if (index < 0) {
+      std::string listed;
+      for (const std::string& known : names) listed += (listed.empty() ? "" : ", ") + in_quotes(known);
+      fail("has no animation " + in_quotes(name) + (names.empty() ? "; it has no animations" : "; its animations: " + listed));
+    }
+    NodeAnimation animation;
+    animation.name = name;
+    animation.parents = parent_;
+    animation.order = order_;
+    animation.to_world = y_up_to_z_up();
+    for (int node = 0; node < node_count(); ++node) animation.rest.push_back(node_rest(node));
+
+    const tinygltf::Animation& source = model_.animations[index];
+    const std::string label = "animation " + std::to_string(index) + " " + in_quotes(name);
+    bool any = false;
+    for (std::size_t c = 0; c < source.channels.size(); ++c) {
+      const tinygltf::AnimationChannel& channel = source.channels[c];
+      const std::string what = label + " channel " + std::to_string(c);
+      check_index(channel.sampler, source.samplers.size(), what, "sampler");
+      if (channel.target_node < 0) continue;  // a target an extension defines: nothing to play here
+      check_index(channel.target_node, model_.nodes.size(), what, "node");
+      NodeChannel out;
+      out.node = channel.target_node;
+      if (channel.target_path == "translation") {
+        out.property = NodeProperty::translation;
+      } else if (channel.target_path == "rotation") {
+        out.property = NodeProperty::rotation;
+      } else if (channel.target_path == "scale") {
+        out.property = NodeProperty::scale;
+      } else if (channel.target_path == "weights") {
+        animation.warnings.push_back(what + " animates the morph target weights of " + node_label(channel.target_node) +
+                                     ", which are not played (morph targets stay at their default weights)");
+        continue;
+      } else {
+        fail(what + " has target path " + in_quotes(channel.target_path) +
+             " (expected translation, rotation, scale or weights)");
+      }
+      if (!model_.nodes[out.node].matrix.empty()) {
+        fail(what + " animates " + node_label(out.node) + ", which is given as a matrix; glTF animates only nodes given "
+                    "by translation, rotation and scale");
+      }
+      const tinygltf::AnimationSampler& sampler = source.samplers[channel.sampler];
+      const std::string sampler_label = label + " sampler " + std::to_string(channel.sampler);
+      KeyframeTrack& track = out.track;
+      if (sampler.interpolation.empty() || sampler.interpolation == "LINEAR") {
+        track.interpolation = Interpolation::linear;
+      } else if (sampler.interpolation == "STEP") {
+        track.interpolation = Interpolation::step;
+      } else if (sampler.interpolation == "CUBICSPLINE") {
+        track.interpolation = Interpolation::cubic_spline;
+      } else {
+        fail(sampler_label + " has interpolation " + in_quotes(sampler.interpolation) +
+             " (expected LINEAR, STEP or CUBICSPLINE)");
+      }
+      track.rotation = out.property == NodeProperty::rotation;
+      track.components = track.rotation ? 4 : 3;
+      const Elements times =
+          read_accessor(sampler.input, sampler_label + " input", TINYGLTF_TYPE_SCALAR, {TINYGLTF_COMPONENT_TYPE_FLOAT});
+      // KHR_mesh_quantization lets rotations be normalised integers; translations and scales are floats.
+      const Elements values =
+          track.rotation ? read_accessor(sampler.output, sampler_label + " output", TINYGLTF_TYPE_VEC4,
+                                         {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
+                                          TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT,
+                                          TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT})
+                         : read_accessor(sampler.output, sampler_label + " output", TINYGLTF_TYPE_VEC3,
+                                         {TINYGLTF_COMPONENT_TYPE_FLOAT});
+      const std::size_t per_key = track.interpolation == Interpolation::cubic_spline ? 3 : 1;
+      if (values.count != times.count * per_key) {
+        fail(sampler_label + " has " + std::to_string(times.count) + " key times but " + std::to_string(values.count) +
+             " output elements" + (per_key == 3 ? " (CUBICSPLINE needs 3 a key: in-tangent, value, out-tangent)" : ""));
+      }
+      track.times = times.values;
+      track.values = values.values;
+      try {
+        track.validate(sampler_label);
+      } catch (const std::invalid_argument& error) {
+        fail(error.what());
+      }
+      animation.start = any ? std::min(animation.start, track.times.front()) : track.times.front();
+      animation.end = any ? std::max(animation.end, track.times.back()) : track.times.back();
+      any = true;
+      animation.channels.push_back(std::move(out));
+    }
+    if (!any) fail(label + " animates no node's translation, rotation or scale");
+    try {
+      animation.validate();
+    } catch (const std::invalid_argument& error) {
+      fail(error.what());
+    }
+    return animation;
+  }
+
  private:
   [[noreturn]] void fail(const std::string& problem) const { throw InputError(path_, problem); }
+
+  // A node's rest translation, rotation (normalised) and scale, or its matrix, checked as node_local does.
+  NodeRest node_rest(int node) const {
+    const tinygltf::Node& n = model_.nodes[node];
+    NodeRest rest;
+    if (!n.matrix.empty()) {
+      rest.matrix = node_local(node);
+      return rest;
+    }
+    const Eigen::Matrix4d local = node_local(node);  // checks every number
+    if (!n.translation.empty()) rest.translation = local.topRightCorner<3, 1>();
+    if (!n.rotation.empty()) rest.rotation = Eigen::Quaterniond(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]).normalized();
+    if (!n.scale.empty()) rest.scale = Eigen::Vector3d(n.scale[0], n.scale[1], n.scale[2]);
+    return rest;
+  }
 
   // VRM avatars declare their humanoid bones: VRM 0.x as extensions.VRM.humanoid.humanBones, an
   // array of {"bone": name, "node": index}; VRM 1.0 as extensions.VRMC_vrm.humanoid.humanBones,
@@ -1126,6 +1244,17 @@ GltfFileSummary summarize_gltf_file(const std::string& path) {
     if (!buffer.uri.empty() && buffer.uri.rfind("data:", 0) != 0) input_bytes += buffer.data.size();
   }
   return CharacterReader(path, std::move(model), std::move(warnings), gltf_decode_budget(input_bytes)).summarize();
+}
+
+NodeAnimation load_gltf_animation(const std::string& path, const std::string& name) {
+  std::vector<std::string> warnings;
+  const std::vector<unsigned char> bytes = read_whole_file(path);
+  tinygltf::Model model = parse_gltf(path, bytes, warnings);
+  std::uint64_t input_bytes = bytes.size();
+  for (const tinygltf::Buffer& buffer : model.buffers) {
+    if (!buffer.uri.empty() && buffer.uri.rfind("data:", 0) != 0) input_bytes += buffer.data.size();
+  }
+  return CharacterReader(path, std::move(model), std::move(warnings), gltf_decode_budget(input_bytes)).read_animation(name);
 }
 
 }  // namespace odyssey::io

@@ -81,6 +81,7 @@
 #include <vector>
 
 #include "skeleton/character.h"
+#include "skeleton/node_animation.h"
 
 namespace odyssey::io {
 
@@ -128,5 +129,17 @@ struct GltfFileSummary {
 // container, the JSON depth, every index; each sampler's input times decoded as float scalars,
 // within the same decoding budget, finite). Throws InputError naming the file.
 GltfFileSummary summarize_gltf_file(const std::string& path);
+
+// The animation called `name` (its name, else "animation_<index>" as the summary lists it), decoded
+// for playback on the character load_character() builds from the same file
+// (skeleton/node_animation.h): the file's whole node hierarchy with its rest transforms (the same
+// checks as load_character), and per channel its node, property and keyframe track (LINEAR, STEP
+// or CUBICSPLINE; input times as floats; translations and scales as floats, rotations as floats or
+// normalised integers; every index, count and number checked, within the decoding budget). A
+// channel on morph target weights is not played and a warning in NodeAnimation::warnings says so;
+// a channel with no target node (an extension's) is skipped. Throws InputError naming the file
+// and the animation, channel or sampler; for an animation the file does not have, the message
+// lists the names it has.
+NodeAnimation load_gltf_animation(const std::string& path, const std::string& name);
 
 }  // namespace odyssey::io

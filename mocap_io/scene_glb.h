@@ -74,6 +74,7 @@
 #include "skeleton/camera.h"
 #include "skeleton/character.h"
 #include "skeleton/clip.h"
+#include "skeleton/mesh_animation.h"
 
 namespace odyssey::io {
 
@@ -81,6 +82,9 @@ struct SceneGlbActor {
   std::string name;                     // the group node's name and the prefix of its mesh nodes
   const Character* character = nullptr;  // not owned; read during the call only
   const Clip* clip = nullptr;            // on character->skeleton, one frame per output frame at fps
+  // A vertex-animated actor (one joint, one mesh): the mesh's vertices every output frame, in
+  // joint 0's frame; written as morph targets (above). nullptr: the mesh is skinned.
+  const MeshAnimation* vertex_animation = nullptr;
 };
 
 struct SceneGlbCamera {

@@ -39,11 +39,61 @@ std::string name_of(const JsonValue& item, const std::string& fallback) {
   return fallback;
 }
 
-SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& base) {
-  item.allow_only({"name", "motion", "character", "model", "betas", "bvh_units", "quality", "parts", "fps", "weights", "map",
-                   "source_map", "source_rest", "placement", "start", "trim", "speed", "points", "sampling"});
-  SceneActor actor;
-  actor.name = name_of(item, "actor" + std::to_string(index));
+// The length of a played source: "loops" or "seconds", not both.
+PlaybackLength read_length(const JsonValue& item) {
+  PlaybackLength length;
+  if (const auto value = item.find("loops")) length.loops = static_cast<int>(value->integer(1, 1'000'000));
+  if (const auto value = item.find("seconds")) {
+    if (length.loops) value->fail("give loops or seconds, not both");
+    length.seconds = value->number_in(0, 1e6);
+  }
+  return length;
+}
+
+// An actor playing a character's own animation ("character" and "animation") or a .anime mesh
+// ("anime"): the keys of its source. Returns false for a motion actor.
+bool read_played_source(const JsonValue& item, SceneActor& actor, const fs::path& base) {
+  const auto animation = item.find("animation"), anime = item.find("anime");
+  if (!animation && !anime) {
+    for (const char* key : {"loops", "seconds", "scale", "source_fps", "up"}) {
+      if (const auto value = item.find(key)) value->fail("only an actor with an animation or an anime takes this key");
+    }
+    return false;
+  }
+  if (animation && anime) anime->fail("an actor plays an animation or an anime, not both");
+  if (const auto motion = item.find("motion")) motion->fail("an actor with " + std::string(anime ? "an anime" : "an animation") +
+                                                            " plays it: it takes no motion");
+  for (const char* key : {"model", "betas", "bvh_units", "quality", "parts", "weights", "map", "source_map", "source_rest"}) {
+    if (const auto value = item.find(key)) value->fail("a retargeting setting, but this actor plays its own motion");
+  }
+  const double scale = item.find("scale") ? item.member("scale").number_in(1e-9, 1e9) : 1.0;
+  if (animation) {
+    for (const char* key : {"source_fps", "up"}) {
+      if (const auto value = item.find(key)) value->fail("only an anime actor takes this key");
+    }
+    actor.source = ActorSourceKind::animation;
+    actor.animation.character_path = resolve(item.member("character"), base);
+    actor.animation.animation = animation->string();
+    if (actor.animation.animation.empty()) animation->fail("an empty animation name");
+    actor.animation.length = read_length(item);
+    actor.animation.scale = scale;
+    return true;
+  }
+  if (const auto character = item.find("character")) character->fail("an anime actor's mesh is its anime file: it takes no character");
+  actor.source = ActorSourceKind::anime;
+  actor.anime.path = resolve(*anime, base);
+  if (const auto value = item.find("source_fps")) actor.anime.source_fps = value->number_in(1e-3, 1e4);
+  if (const auto value = item.find("up")) {
+    const std::string axis = value->string();
+    if (axis != "y" && axis != "z") value->fail("expected y or z");
+    actor.anime.up_z = axis == "z";
+  }
+  actor.anime.length = read_length(item);
+  actor.anime.scale = scale;
+  return true;
+}
+
+void read_retarget_request(const JsonValue& item, SceneActor& actor, const fs::path& base) {
   retarget::Quality quality = retarget::Quality::balanced;
   if (const auto value = item.find("quality")) {
     const auto parsed = retarget::parse_quality(value->string());
@@ -88,6 +138,9 @@ SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& 
       value->fail("expected rest or first-frame");
     }
   }
+}
+
+void read_placement_and_timing(const JsonValue& item, SceneActor& actor) {
   if (const auto value = item.find("placement")) {
     if (value->is_string()) {
       if (value->string() != "as recorded") value->fail("expected \"as recorded\" or an object");
@@ -128,13 +181,22 @@ SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& 
   if (const auto value = item.find("speed")) {
     actor.speed = value->number_in(1e-3, 1e3);
   }
-  if (const auto value = item.find("fps")) r.fps = value->number_in(1e-3, 1e4);
   if (const auto value = item.find("points")) actor.points = static_cast<int>(value->integer(0, 10'000'000));
   if (const auto value = item.find("sampling")) {
     const std::string text = value->string();
     if (text != "surface" && text != "vertices") value->fail("expected surface or vertices");
     actor.sampling = text == "surface" ? skinning::SamplingMode::surface : skinning::SamplingMode::vertices;
   }
+}
+
+SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& base) {
+  item.allow_only({"name", "motion", "character", "model", "betas", "bvh_units", "quality", "parts", "fps", "weights", "map",
+                   "source_map", "source_rest", "placement", "start", "trim", "speed", "points", "sampling", "animation",
+                   "anime", "loops", "seconds", "scale", "source_fps", "up"});
+  SceneActor actor;
+  actor.name = name_of(item, "actor" + std::to_string(index));
+  if (!read_played_source(item, actor, base)) read_retarget_request(item, actor, base);
+  read_placement_and_timing(item, actor);
   return actor;
 }
 
@@ -332,6 +394,8 @@ SceneFile parse_scene(const std::string& json_text, const std::string& path) {
   for (std::size_t a = 0; a < actors.size(); ++a) {
     scene.actors.push_back(read_actor(actors[a], a, base));
     scene.actors.back().retarget.fps = scene.fps;
+    scene.actors.back().animation.fps = scene.fps;
+    scene.actors.back().anime.fps = scene.fps;
     if (actors[a].find("fps")) actors[a].member("fps").fail("actors run at the scene's fps");
     if (!names.insert(scene.actors.back().name).second) actors[a].member("name").fail("two actors have this name");
   }

@@ -39,6 +39,18 @@ void require_clip_on(const StreamActor& actor) {
   if (clip.frame_count() < 1) throw std::invalid_argument(who + "the clip has no frames");
 }
 
+void require_vertex_animation(const StreamActor& actor) {
+  const std::string who = "actor '" + actor.name + "': ";
+  const MeshAnimation& animation = *actor.vertex_animation;
+  if (actor.character->meshes.size() != 1 || animation.vertex_count != actor.character->meshes[0].positions.size()) {
+    throw std::invalid_argument(who + "a vertex animation needs one mesh of as many vertices as it animates");
+  }
+  if (animation.frame_count() != actor.clip->frame_count()) {
+    throw std::invalid_argument(who + "the vertex animation has " + std::to_string(animation.frame_count()) +
+                                " frames, the clip " + std::to_string(actor.clip->frame_count()));
+  }
+}
+
 // Frames per chunk: the option, or as many frames of `bytes_per_frame` output as fit in 16 MiB.
 int chunk_frames(const StreamOptions& options, std::size_t bytes_per_frame) {
   if (options.chunk_frames < 0) throw std::invalid_argument("chunk_frames must not be negative");
@@ -94,6 +106,8 @@ bool strictly_inside(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& poin
 struct ActorState {
   std::unique_ptr<skinning::SurfacePointSkinner> points;
   std::unique_ptr<skinning::LinearBlendSkinner> mesh;
+  const MeshAnimation* animated = nullptr;  // a vertex-animated actor: no skinners
+  bool has_mesh = false;                    // mesh_positions are filled (skinned or animated)
   std::vector<std::uint32_t> triangles;  // numbered within the actor's vertices
   std::vector<std::uint32_t> triangles_without_head;  // for an ego camera riding on it
   std::size_t vertices = 0;
@@ -179,15 +193,22 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
     const StreamActor& actor = actors[a];
     ActorState& s = state[a];
     s.first_point = n;
-    if (tracking && !actor.points.empty()) {
+    s.vertices = vertex_count(*actor.character);
+    if (actor.vertex_animation) {
+      require_vertex_animation(actor);
+      s.animated = actor.vertex_animation;
+      if (tracking) n += actor.points.size();
+    } else if (tracking && !actor.points.empty()) {
       s.points = std::make_unique<skinning::SurfacePointSkinner>(*actor.character, actor.points, options.threads);
       n += actor.points.size();
     }
-    s.vertices = vertex_count(*actor.character);
     if ((tracking || actor.mesh_every_frame) && s.vertices > 0) {
-      const std::vector<skinning::MeshVertex> vertices = skinning::all_vertices(*actor.character);
-      s.mesh = std::make_unique<skinning::LinearBlendSkinner>(*actor.character, vertices,
-                                                              skinning::SkinningOptions{options.threads, false});
+      if (!s.animated) {
+        const std::vector<skinning::MeshVertex> vertices = skinning::all_vertices(*actor.character);
+        s.mesh = std::make_unique<skinning::LinearBlendSkinner>(*actor.character, vertices,
+                                                                skinning::SkinningOptions{options.threads, false});
+      }
+      s.has_mesh = true;
       s.triangles = all_triangles(*actor.character);
       mesh_floats_per_frame += s.vertices * 3;
       if (actor.head_joint >= 0) {
@@ -302,13 +323,46 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
       s.world.resize(count * joints);
       s.boxes.assign(count, Eigen::AlignedBox3d());
       s.point_boxes.assign(count, Eigen::AlignedBox3d());
+      if (s.animated && s.has_mesh) s.mesh_positions.resize(count * s.vertices * 3);
       for (int f = 0; f < count; ++f) {
         const std::span<RigidTransform<double>> world = std::span(s.world).subspan(f * joints, joints);
         actors[a].clip->world_pose(first + f, world);
         for (const RigidTransform<double>& joint : world) s.boxes[f].extend(joint.translation);
+        if (s.animated && s.has_mesh) {
+          // World vertex = W(joint 0) local vertex; the box is the vertices'.
+          const Eigen::Matrix3f rotation = world[0].rotation.cast<float>();
+          const Eigen::Vector3f translation = world[0].translation.cast<float>();
+          const std::span<const float> local = s.animated->frame(first + f);
+          float* out = s.mesh_positions.data() + f * s.vertices * 3;
+          for (std::size_t v = 0; v < s.vertices; ++v) {
+            const Eigen::Vector3f p = rotation * Eigen::Vector3f(local[3 * v], local[3 * v + 1], local[3 * v + 2]) + translation;
+            out[3 * v] = p.x();
+            out[3 * v + 1] = p.y();
+            out[3 * v + 2] = p.z();
+            s.boxes[f].extend(p.cast<double>());
+          }
+        }
         s.point_boxes[f] = s.boxes[f];
         s.boxes[f].min().array() -= s.margin;
         s.boxes[f].max().array() += s.margin;
+      }
+      if (s.animated && tracking && !actors[a].points.empty()) {
+        // Points interpolate their triangle's corners, as SurfacePointSkinner does, in float32.
+        const std::vector<skinning::SurfacePoint>& points = actors[a].points;
+        for (int f = 0; f < count; ++f) {
+          const float* vertices = s.mesh_positions.data() + f * s.vertices * 3;
+          float* to = trajs_3d.data() + (f * n + s.first_point) * 3;
+          Eigen::AlignedBox3d box;
+          for (std::size_t i = 0; i < points.size(); ++i) {
+            Eigen::Vector3f p = Eigen::Vector3f::Zero();
+            for (int c = 0; c < 3; ++c) p += points[i].barycentric[c] * Eigen::Vector3f::Map(vertices + 3 * points[i].vertices[c]);
+            to[3 * i] = p.x();
+            to[3 * i + 1] = p.y();
+            to[3 * i + 2] = p.z();
+            box.extend(p.cast<double>());
+          }
+          s.point_boxes[f] = box;
+        }
       }
       if (s.points) {
         const std::size_t np = s.points->point_count();
@@ -331,7 +385,7 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
     // if some camera may, or every frame for a point cache.
     for (std::size_t a = 0; a < actors.size(); ++a) {
       ActorState& s = state[a];
-      if (!s.mesh) continue;
+      if (!s.has_mesh) continue;
       const std::size_t v3 = s.vertices * 3;
       s.mesh_positions.resize(count * v3);
       const std::size_t joints = actors[a].clip->joint_count();
@@ -347,7 +401,7 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
           needed |= in_view;
         }
         if (!needed) continue;
-        s.mesh->skin_frames(1, std::span(s.world).subspan(f * joints, joints), std::span(s.mesh_positions).subspan(f * v3, v3));
+        if (s.mesh) s.mesh->skin_frames(1, std::span(s.world).subspan(f * joints, joints), std::span(s.mesh_positions).subspan(f * v3, v3));
         ++summary.actor_mesh_frames[a];
       }
     }
@@ -366,7 +420,7 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
             if (static_cast<int>(a) != camera.own_actor && strictly_inside(state[a].point_boxes[f], centre)) {
               throw std::invalid_argument("camera '" + camera.name + "' is inside actor '" + actors[a].name + "' at frame " +
                                           std::to_string(frame) + ": its centre lies within the box of the actor's " +
-                                          (state[a].points ? "tracked points" : "joints"));
+                                          (state[a].points || (state[a].animated && !actors[a].points.empty()) ? "tracked points" : "joints"));
             }
           }
           for (std::size_t p = 0; p < prop_boxes.size(); ++p) {
@@ -379,7 +433,7 @@ StreamSummary run_streams(std::span<const StreamActor> actors, const StreamProps
         // The occluders this camera may see this frame: the props, then the actors in view.
         std::vector<char> now(actors.size());
         for (std::size_t a = 0; a < actors.size(); ++a) {
-          now[a] = state[a].mesh && sees[(f * cameras.size() + c) * actors.size() + a];
+          now[a] = state[a].has_mesh && sees[(f * cameras.size() + c) * actors.size() + a];
         }
         occluder_positions.assign(prop_vertices.begin(), prop_vertices.end());
         for (std::size_t a = 0; a < actors.size(); ++a) {

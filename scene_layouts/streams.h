@@ -2,7 +2,9 @@
 // not grow with the clip, and the sinks it feeds.
 //
 // Per chunk of C frames: forward kinematics of every actor (Clip::world_pose); every tracked point
-// skinned once (SurfacePointSkinner over the points' corner vertices; props' points are static);
+// skinned once (SurfacePointSkinner over the points' corner vertices; props' points are static; a
+// vertex-animated actor's vertices are placed by its joint every frame, and its points interpolate
+// their corners with their barycentric weights, so they follow the deforming triangles);
 // each actor's whole mesh skinned once a frame where some camera may see it or a sink asks for its
 // mesh; then per camera and frame: the occluders it may see (every prop, the actors whose
 // conservative box meets its view) drawn into that camera's depth buffer (visibility.h), and every
@@ -10,7 +12,8 @@
 // (by the owner of the triangle that hides it), outside the image, behind the camera. Sinks get
 // each chunk in order (write) between begin() and finish().
 //
-// Culling: an actor's box for a frame is the box of its joints grown by 0.25 of its rest height
+// Culling: an actor's box for a frame is the box of its joints (a vertex-animated actor's: of its
+// vertices) grown by 0.25 of its rest height
 // on every side (hands, feet and head reach beyond their joints by less). A camera skips the
 // actor's mesh when all eight corners lie behind it, or all project to one side of the image; no
 // triangle of the actor can then cover a pixel, so no point in the image changes. The frames
@@ -43,6 +46,7 @@
 #include "skeleton/camera.h"
 #include "skeleton/character.h"
 #include "skeleton/clip.h"
+#include "skeleton/mesh_animation.h"
 #include "skinning/sampling.h"
 
 namespace odyssey::scene {
@@ -53,6 +57,9 @@ struct StreamActor {
   std::string name;
   const Character* character = nullptr;
   const Clip* clip = nullptr;
+  // A vertex-animated actor (actor_source.h, anime): its one mesh's vertices every frame, in clip
+  // joint 0's frame; they replace skinning (world vertex = W(joint 0) local vertex).
+  const MeshAnimation* vertex_animation = nullptr;
   std::vector<skinning::SurfacePoint> points;
   bool mesh_every_frame = false;  // a sink needs its whole mesh each frame (a point cache)
   int head_joint = -1;            // an ego camera on this actor does not see its own head's subtree
