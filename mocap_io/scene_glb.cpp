@@ -438,8 +438,49 @@ class SceneGlbBuilder {
                                            {"inverseBindMatrices", doc_.floats(inverse_bind, "MAT4", 16, 0, false)},
                                            {"joints", std::move(skin_joints)},
                                            {"skeleton", group}});
-      add_node({{"name", name}, {"mesh", mesh_index}, {"skin", skin}, {"extras", extras}}, true);
+      const int node = add_node({{"name", name}, {"mesh", mesh_index}, {"skin", skin}, {"extras", extras}}, true);
+      if (actor.vertex_animation != nullptr) add_vertex_animation(actor, mesh, mesh_index, node, label);
     }
+  }
+
+  // A vertex-animated mesh's frames as morph targets of its one primitive (see the header): frame
+  // f's displacement from the stored positions is a target, consecutive equal frames share one,
+  // and the node's weights put 1 on frame f's target at time f / fps (LINEAR between frames, so the
+  // file moves every vertex linearly from frame to frame, as the toolkit resamples).
+  void add_vertex_animation(const SceneGlbActor& actor, const CharacterMesh& mesh, int mesh_index, int node,
+                            const std::string& label) {
+    const MeshAnimation& animation = *actor.vertex_animation;
+    const std::size_t floats = mesh.positions.size() * 3;
+    require(actor.character->meshes.size() == 1 && animation.vertex_count == mesh.positions.size(),
+            label + ": a vertex animation needs one mesh of as many vertices as it animates");
+    require(animation.frame_count() == frames_, label + ": the vertex animation has " + std::to_string(animation.frame_count()) +
+                                                    " frames, the scene " + std::to_string(frames_));
+    std::vector<int> target_of_frame(frames_);
+    json targets = json::array();
+    for (int f = 0; f < frames_; ++f) {
+      const std::span<const float> frame = animation.frame(f);
+      if (f > 0 && std::equal(frame.begin(), frame.end(), animation.frame(f - 1).begin())) {
+        target_of_frame[f] = target_of_frame[f - 1];
+        continue;
+      }
+      std::vector<float> displacement(floats);
+      for (std::size_t i = 0; i < floats; ++i) {
+        displacement[i] = frame[i] - mesh.positions[i / 3](i % 3);
+        require(std::isfinite(displacement[i]), label + ": frame " + std::to_string(f) + " has a non-finite vertex");
+      }
+      target_of_frame[f] = static_cast<int>(targets.size());
+      targets.push_back({{"POSITION", doc_.floats(displacement, "VEC3", 3, kArrayBuffer, true)}});
+    }
+    const std::size_t count = targets.size();
+    std::vector<float> weights(std::size_t(frames_) * count, 0.0f);
+    for (int f = 0; f < frames_; ++f) weights[std::size_t(f) * count + target_of_frame[f]] = 1.0f;
+    json& mesh_json = doc_.at("meshes", mesh_index);
+    mesh_json["primitives"][0]["targets"] = std::move(targets);
+    mesh_json["weights"] = std::vector<double>(count, 0.0);
+    const int output = doc_.floats(weights, "SCALAR", 1, 0, false);
+    animation_["samplers"].push_back({{"input", time_accessor_}, {"interpolation", "LINEAR"}, {"output", output}});
+    animation_["channels"].push_back(
+        {{"sampler", animation_["samplers"].size() - 1}, {"target", {{"node", node}, {"path", "weights"}}}});
   }
 
   // A triangle mesh of one primitive; skinned when joints and weights are given.

@@ -115,6 +115,10 @@ def main():
         for mesh in meshes:
             found = [o for o in bpy.data.objects if o.type == "MESH" and o.get(mesh["key"]) == mesh["key_value"] and
                      (mesh["key"] == "odyssey_prop" or o.get("odyssey_mesh") == mesh["mesh_id"])]
+            if not found:
+                # A skinned node whose morph weights are animated (a vertex-animated actor) comes in
+                # as a mesh object named after the node plus an empty that keeps the node's extras.
+                found = [o for o in bpy.data.objects if o.type == "MESH" and o.name == mesh["name"]]
             if len(found) != 1:
                 raise RuntimeError("%d Blender objects for GLB node '%s'" % (len(found), mesh["name"]))
             mesh["object"] = found[0]
