@@ -20,6 +20,7 @@
 #include "mocap_io/gltf_character.h"
 #include "mocap_io/input_error.h"
 #include "scene_layouts/actor_source.h"
+#include "scene_layouts/scene_file.h"
 #include "skeleton/rotation.h"
 #include "test_support.h"
 
@@ -232,6 +233,60 @@ TEST(CharacterAnimationCliTest, TheFoxWalksInASceneWithItsTrackedPoints) {
   EXPECT_NEAR(top - bottom, 0.79, 0.05);
   EXPECT_GT(moved, 0.05f);
   EXPECT_LT(loop_gap, 1e-4f);
+}
+
+}  // namespace
+}  // namespace odyssey
+
+namespace odyssey {
+namespace {
+
+std::string scene_error(const std::string& actor) {
+  const std::string text = R"({"version": 1, "actors": [)" + actor + "]}";
+  try {
+    scene::parse_scene(text, "/scenes/s.json");
+  } catch (const io::InputError& error) {
+    return error.what();
+  }
+  return "parsed";
+}
+
+TEST(ActorSourceSceneFileTest, AnimationAndAnimeActorsReadTheirKeys) {
+  const scene::SceneFile file = scene::parse_scene(R"({"version": 1, "fps": 24, "actors": [
+      {"name": "fox", "character": "chars/Fox.glb", "animation": "Run", "loops": 3, "scale": 0.01},
+      {"name": "bear", "anime": "/data/bear.anime", "source_fps": 25, "up": "z", "seconds": 4.5}]})",
+                                                   "/scenes/s.json");
+  const scene::SceneActor& fox = file.scene.actors[0];
+  EXPECT_EQ(fox.source, scene::ActorSourceKind::animation);
+  EXPECT_EQ(fox.animation.character_path, "/scenes/chars/Fox.glb");
+  EXPECT_EQ(fox.animation.animation, "Run");
+  EXPECT_EQ(fox.animation.length.loops, 3);
+  EXPECT_DOUBLE_EQ(fox.animation.scale, 0.01);
+  EXPECT_DOUBLE_EQ(fox.animation.fps, 24);
+  const scene::SceneActor& bear = file.scene.actors[1];
+  EXPECT_EQ(bear.source, scene::ActorSourceKind::anime);
+  EXPECT_EQ(bear.anime.path, "/data/bear.anime");
+  EXPECT_DOUBLE_EQ(bear.anime.source_fps, 25);
+  EXPECT_TRUE(bear.anime.up_z);
+  EXPECT_EQ(bear.anime.length.seconds, 4.5);
+  EXPECT_DOUBLE_EQ(bear.anime.fps, 24);
+}
+
+TEST(ActorSourceSceneFileTest, MixedUpSourcesAreNamedByTheirJsonPath) {
+  EXPECT_TRUE(contains(scene_error(R"({"anime": "a.anime", "animation": "Walk", "character": "c.glb"})"),
+                       "actors[0].anime: an actor plays an animation or an anime, not both"))
+      << scene_error(R"({"anime": "a.anime", "animation": "Walk", "character": "c.glb"})");
+  EXPECT_TRUE(contains(scene_error(R"({"character": "c.glb", "animation": "Walk", "motion": "m.bvh"})"), "actors[0].motion"));
+  EXPECT_TRUE(contains(scene_error(R"({"character": "c.glb", "animation": "Walk", "quality": "fast"})"),
+                       "a retargeting setting, but this actor plays its own motion"));
+  EXPECT_TRUE(contains(scene_error(R"({"character": "c.glb", "animation": "Walk", "loops": 2, "seconds": 3})"),
+                       "give loops or seconds, not both"));
+  EXPECT_TRUE(contains(scene_error(R"({"character": "c.glb", "motion": "m.bvh", "loops": 2})"),
+                       "only an actor with an animation or an anime takes this key"));
+  EXPECT_TRUE(contains(scene_error(R"({"anime": "a.anime", "up": "x"})"), "expected y or z"));
+  EXPECT_TRUE(contains(scene_error(R"({"anime": "a.anime", "character": "c.glb"})"), "it takes no character"));
+  EXPECT_TRUE(contains(scene_error(R"({"character": "c.glb", "animation": "Walk", "source_fps": 30})"), "only an anime actor"));
+  EXPECT_TRUE(contains(scene_error(R"({"character": "c.glb", "animation": ""})"), "an empty animation name"));
 }
 
 }  // namespace
