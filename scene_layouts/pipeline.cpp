@@ -449,8 +449,8 @@ CameraPath camera_rig_path(const SceneCamera& camera, const Scene& scene, const 
     }
     const PlacedActor& actor = actors[camera.actor];
     if (!actor.retargeted) {
-      throw std::invalid_argument("rides on actor '" + actor.name + "', a " + actor_source_name(actor.motion->kind) +
-                                  " actor: an ego camera needs the head and hips of a retargeted character's bone map");
+      throw std::invalid_argument("rides on actor '" + actor.name + "', whose source (" + actor_source_name(actor.motion->kind) +
+                                  ") has no bone map: an ego camera needs the head and hips of a retargeted character's");
     }
     const double height = actor.retargeted->character.rest_bounds().sizes().z();
     EgoHeadOptions options;

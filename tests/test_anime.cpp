@@ -273,6 +273,17 @@ TEST(AnimeCliTest, ATruncatedFileIsOneLineAndNothingIsWritten) {
   EXPECT_TRUE(contains(both.output, "give no --character")) << both.output;
 }
 
+TEST(AnimeCliTest, AnEgoCameraNeedsAHeadThatAMeshDoesNotHave) {
+  const fs::path dir = test_support::scratch_dir("anime_cli_ego");
+  const fs::path anime = write_sphere(dir / "ball.anime", Motion{}, 5, 10);
+  const test_support::CliResult run =
+      test_support::run_cli("trajectories --anime " + quoted(anime) + " --camera ego --out " + quoted(dir / "t.npz"));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_TRUE(contains(run.output, "whose source (anime) has no bone map: an ego camera needs the head and hips of a retargeted character's"))
+      << run.output;
+  EXPECT_FALSE(fs::exists(dir / "t.npz"));
+}
+
 // Two spheres on the camera's axis, the near one hiding the far one: every point of the far one
 // that faces the camera is occluded by an actor (the near sphere subtends the larger angle), none
 // of it is visible, and about half of the near one is.
