@@ -23,6 +23,16 @@ Args& Args::positional(const std::string& name, const std::string& help) {
   return *this;
 }
 
+Args& Args::list_option(const std::string& name, const std::string& value_name, const std::string& help) {
+  options_.push_back({name, value_name + "...", help, std::nullopt, false, true});
+  return *this;
+}
+
+Args& Args::rest(const std::string& name, const std::string& help) {
+  rest_ = Spec{name, name + "...", help, std::nullopt, false, true};
+  return *this;
+}
+
 const Args::Spec* Args::find_option(const std::string& name) const {
   for (const Spec& spec : options_) {
     if (spec.name == name) return &spec;
@@ -56,6 +66,14 @@ bool Args::parse(const std::vector<std::string>& arguments) {
       }
       const Spec* spec = find_option(name);
       if (!spec) throw UsageError("unknown option --" + name);
+      if (spec->is_list) {
+        std::vector<std::string>& list = lists_[name];
+        const std::size_t before = list.size();
+        if (inline_value) list.push_back(value);
+        while (i + 1 < arguments.size() && arguments[i + 1].rfind("--", 0) != 0) list.push_back(arguments[++i]);
+        if (list.size() == before) throw UsageError("option --" + name + " needs one or more values (" + spec->value_name + ")");
+        continue;
+      }
       if (spec->is_flag) {
         if (inline_value) throw UsageError("option --" + name + " takes no value");
         flags_.insert(name);
@@ -67,15 +85,27 @@ bool Args::parse(const std::vector<std::string>& arguments) {
       }
       values_[name] = value;
     } else {
+      if (next_positional >= positionals_.size() && rest_) {
+        lists_[rest_->name].push_back(argument);
+        continue;
+      }
       if (next_positional >= positionals_.size()) throw UsageError("unexpected argument '" + argument + "'");
       values_[positionals_[next_positional++].name] = argument;
     }
   }
   if (next_positional < positionals_.size()) throw UsageError("missing argument " + positionals_[next_positional].name);
+  if (rest_ && lists_[rest_->name].empty()) throw UsageError("missing argument " + rest_->value_name);
   return true;
 }
 
-bool Args::has(const std::string& name) const { return values_.count(name) > 0 || flags_.count(name) > 0; }
+bool Args::has(const std::string& name) const {
+  return values_.count(name) > 0 || flags_.count(name) > 0 || lists_.count(name) > 0;
+}
+
+std::vector<std::string> Args::get_list(const std::string& name) const {
+  const auto found = lists_.find(name);
+  return found == lists_.end() ? std::vector<std::string>{} : found->second;
+}
 
 std::optional<std::string> Args::get_optional(const std::string& name) const {
   if (auto it = values_.find(name); it != values_.end()) return it->second;
@@ -114,11 +144,13 @@ std::string Args::help() const {
   std::ostringstream out;
   out << "usage: odyssey " << command_;
   for (const Spec& spec : positionals_) out << ' ' << spec.name;
+  if (rest_) out << ' ' << rest_->value_name;
   if (!options_.empty()) out << " [options]";
   out << "\n\n" << summary_ << "\n";
-  if (!positionals_.empty()) {
+  if (!positionals_.empty() || rest_) {
     out << "\narguments:\n";
     for (const Spec& spec : positionals_) out << "  " << spec.name << "\n      " << spec.help << "\n";
+    if (rest_) out << "  " << rest_->value_name << "\n      " << rest_->help << "\n";
   }
   out << "\noptions:\n";
   for (const Spec& spec : options_) {

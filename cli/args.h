@@ -25,6 +25,11 @@ class Args {
                std::optional<std::string> default_value = std::nullopt);
   Args& flag(const std::string& name, const std::string& help);
   Args& positional(const std::string& name, const std::string& help);
+  // `--name A B C ...`: every argument up to the next that starts with "--" (a shell glob expands
+  // to many); the option may also repeat. get_list() returns them all, in order.
+  Args& list_option(const std::string& name, const std::string& value_name, const std::string& help);
+  // The positional arguments after the declared ones (at least one), e.g. "DIR...".
+  Args& rest(const std::string& name, const std::string& help);
 
   // Returns false when --help was asked for (the help text has been printed).
   bool parse(const std::vector<std::string>& arguments);
@@ -35,6 +40,7 @@ class Args {
   double get_double(const std::string& name) const;
   long long get_int(const std::string& name) const;
   bool get_flag(const std::string& name) const;
+  std::vector<std::string> get_list(const std::string& name) const;  // a list option's values, or the rest
 
   std::string help() const;
 
@@ -43,6 +49,7 @@ class Args {
     std::string name, value_name, help;
     std::optional<std::string> default_value;
     bool is_flag = false;
+    bool is_list = false;
   };
   const Spec* find_option(const std::string& name) const;
   const Spec* find(const std::string& name) const;
@@ -50,7 +57,9 @@ class Args {
   std::string command_, summary_;
   std::vector<Spec> options_;
   std::vector<Spec> positionals_;
+  std::optional<Spec> rest_;
   std::map<std::string, std::string> values_;
+  std::map<std::string, std::vector<std::string>> lists_;
   std::set<std::string> flags_;
 };
 

@@ -16,5 +16,7 @@ int run_retarget(const std::vector<std::string>& arguments);
 int run_trajectories(const std::vector<std::string>& arguments);
 int run_point_cache(const std::vector<std::string>& arguments);
 int run_scene(const std::vector<std::string>& arguments);
+int run_batch(const std::vector<std::string>& arguments);
+int run_batch_report(const std::vector<std::string>& arguments);
 
 }  // namespace odyssey::cli

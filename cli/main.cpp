@@ -30,6 +30,9 @@ constexpr Command kCommands[] = {
      odyssey::cli::run_point_cache},
     {"scene", "run a scene file: several actors, props and cameras in one shot; tracks, caches, cameras, report",
      odyssey::cli::run_scene},
+    {"batch", "retarget motion libraries onto character libraries (or a manifest's jobs): parallel, resumable, sharded",
+     odyssey::cli::run_batch},
+    {"batch-report", "merge the journals of a batch's shards into one report", odyssey::cli::run_batch_report},
 };
 
 void print_usage(std::FILE* stream) {

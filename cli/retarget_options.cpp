@@ -121,8 +121,12 @@ void print_result(const retarget::RetargetReport& report) {
 
 void add_retarget_options(Args& args) {
   args.option("motion", "FILE", "BVH file or AMASS-style npz sequence (required)")
-      .option("character", "FILE", "rigged humanoid character, .glb or .gltf (required)")
-      .option("quality", "Q",
+      .option("character", "FILE", "rigged humanoid character, .glb or .gltf (required)");
+  add_retarget_settings(args);
+}
+
+void add_retarget_settings(Args& args) {
+  args.option("quality", "Q",
               "fast (rotation transfer, no solver), balanced (Ceres refinement per frame: bone directions, "
               "end effectors, foot contacts) or accurate (refinement over temporal windows, smoother)",
               "fast")
@@ -149,9 +153,13 @@ void add_retarget_options(Args& args) {
 }
 
 scene::RetargetRequest retarget_request_from(const Args& args) {
+  return retarget_settings_from(args, args.get("motion"), args.get("character"));
+}
+
+scene::RetargetRequest retarget_settings_from(const Args& args, const std::string& motion, const std::string& character) {
   const auto quality = retarget::parse_quality(args.get("quality"));
   if (!quality) throw UsageError("--quality expects fast, balanced or accurate, got '" + args.get("quality") + "'");
-  scene::RetargetRequest request = scene::retarget_request(args.get("motion"), args.get("character"), *quality);
+  scene::RetargetRequest request = scene::retarget_request(motion, character, *quality);
   request.map_path = args.get_optional("map");
   request.source_map_path = args.get_optional("source-map");
   request.model_path = args.get_optional("model");
@@ -174,6 +182,7 @@ scene::RetargetRequest retarget_request_from(const Args& args) {
     throw UsageError("--source-rest expects rest or first-frame, got '" + source_rest + "'");
   }
   request.bvh_metres_per_unit = bvh_metres_per_unit(args);
+  if (motion.empty()) return request;
   const bool bvh = std::filesystem::path(request.motion_path).extension() == ".bvh";
   if (request.model_path && bvh) throw UsageError("--model is for AMASS sequences; " + request.motion_path + " is a BVH file");
   if (args.has("betas") && bvh) throw UsageError("--betas is for AMASS sequences; " + request.motion_path + " is a BVH file");

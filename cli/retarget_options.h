@@ -13,8 +13,13 @@ namespace odyssey::cli {
 // --model, --source-rest, --weights and --bvh-units.
 void add_retarget_options(Args& args);
 
+// The same without --motion and --character (the batch's settings for every job).
+void add_retarget_settings(Args& args);
+
 // Throws UsageError for a malformed value.
 scene::RetargetRequest retarget_request_from(const Args& args);
+// From add_retarget_settings' options; an empty motion skips the checks that need its format.
+scene::RetargetRequest retarget_settings_from(const Args& args, const std::string& motion, const std::string& character);
 
 // Prints each stage of retarget_actor (and of the scene pipeline) as it ends.
 void print_progress(const scene::ProgressEvent& event);

@@ -1,0 +1,77 @@
+// A batch job and where jobs come from. A job is one scene run into its own folder: either a
+// motion retargeted onto a character (a one-actor scene, the common case) or a scene file.
+//
+// Jobs from lists (`--motions PATH... --characters PATH...`): a PATH is a file, a folder (searched
+// recursively for motion files .bvh/.npz, or characters .glb/.gltf/.vrm) or a glob. Every motion
+// goes onto every character. A job's name, which is its folder under DIR/jobs, is
+//   <character>/<motion>
+// where each part is the file's path relative to the folder (or the glob's fixed leading folder)
+// it was found through, without its extension; a file given by itself contributes its stem. So
+// `--motions amass/` gives "Robot/CMU/01/01_01_poses" for amass/CMU/01/01_01_poses.npz. A
+// character's bone map, when a file <character stem>.map.json lies beside it, is used as its --map.
+//
+// Jobs from a manifest (JSON: {"jobs": [ROW, ...]} or an array of rows; CSV: a header row then one
+// row per job): a row names a motion and a character, or a scene file; optionally its name and
+// per-job settings over the batch's (quality, fps, parts, bvh_units, betas, map, source_map,
+// model, outputs). Relative paths are relative to the manifest. Errors name the manifest, the row
+// (CSV: its line) and the column.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scene_layouts/actor.h"
+
+namespace odyssey::batch {
+
+// Files each job writes into its folder.
+struct JobOutputs {
+  bool glb = true;            // animation.glb: the character animated, with the framing camera
+  bool report = true;         // retarget.json: the retargeting report (maps, metrics, settings)
+  bool trajectories = false;  // trajectories.npz and camera.json (a static camera framing the actor)
+  bool point_cache = false;   // point_cache.pc2 and point_cache.obj
+  bool preview = false;       // preview.png
+};
+// "glb,report,trajectories,point-cache,preview" (any subset, at least one); nothing on a bad name.
+std::optional<JobOutputs> parse_job_outputs(const std::string& list);
+std::string job_outputs_text(const JobOutputs& outputs);
+inline constexpr const char* kJobOutputNames = "glb, report, trajectories, point-cache, preview";
+
+struct Job {
+  std::string name;        // its folder under DIR/jobs: '/'-separated, relative, no "." or ".." parts
+  std::string scene_path;  // a scene job runs this file (its own outputs, into the job's folder)
+  scene::RetargetRequest request;  // a retarget job: motion onto character
+  JobOutputs outputs;
+  std::string source;      // where the job came from, for errors: "lists" or "manifest.csv: line 4"
+};
+
+// Every job of a batch shares these unless a manifest row says otherwise.
+struct JobDefaults {
+  scene::RetargetRequest request;  // motion and character paths empty
+  JobOutputs outputs;
+};
+
+// Input files found through a list of PATHs: each with the name it contributes to job names.
+struct FoundFile {
+  std::string path, name;
+};
+// `extensions` lower case with the dot. Throws io::InputError naming the PATH when it does not
+// exist, cannot be read, or (folder or glob) holds no file of the kind; `what` names the kind
+// ("motion", "character") in the message.
+std::vector<FoundFile> find_input_files(const std::vector<std::string>& paths, const std::vector<std::string>& extensions,
+                                        const std::string& what);
+inline const std::vector<std::string> kMotionExtensions{".bvh", ".npz"};
+inline const std::vector<std::string> kCharacterExtensions{".glb", ".gltf", ".vrm"};
+
+// The cross product, motions outer; throws io::InputError when two jobs would share a name.
+std::vector<Job> cross_product_jobs(const std::vector<FoundFile>& motions, const std::vector<FoundFile>& characters,
+                                    const JobDefaults& defaults);
+
+// Throws io::InputError naming the manifest, the row and the column.
+std::vector<Job> read_manifest(const std::string& path, const JobDefaults& defaults);
+
+// Throws std::invalid_argument when two jobs share a name or a name is not a safe relative path.
+void check_job_names(const std::vector<Job>& jobs);
+
+}  // namespace odyssey::batch
