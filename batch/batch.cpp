@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -36,28 +37,6 @@ const char* kVersion = "odyssey 0.1 batch 1";
 std::optional<long long> whole_number(const std::string& text) {
   if (text.empty() || text.size() > 9 || text.find_first_not_of("0123456789") != std::string::npos) return std::nullopt;
   return std::stoll(text);
-}
-
-// Fault injection for the tests of worker isolation: ODYSSEY_BATCH_FAULT=KIND:TEXT makes a job
-// whose name contains TEXT abort (crash), never finish (hang) or allocate without end (oom).
-void inject_fault(const Job& job) {
-  const char* fault = std::getenv("ODYSSEY_BATCH_FAULT");
-  if (!fault) return;
-  const std::string text = fault;
-  const std::size_t colon = text.find(':');
-  if (colon == std::string::npos || job.name.find(text.substr(colon + 1)) == std::string::npos) return;
-  const std::string kind = text.substr(0, colon);
-  if (kind == "crash") std::abort();
-  if (kind == "hang") {
-    for (;;) ::pause();
-  }
-  if (kind == "oom") {
-    std::vector<std::unique_ptr<char[]>> blocks;
-    for (;;) {
-      blocks.emplace_back(new char[64 << 20]);
-      std::memset(blocks.back().get(), 1, 64 << 20);
-    }
-  }
 }
 
 bool write_all(int fd, const std::string& text) {
@@ -94,7 +73,6 @@ bool write_all(int fd, const std::string& text) {
     }
     const std::size_t index = std::stoul(buffer.substr(0, newline));
     buffer.erase(0, newline + 1);
-    inject_fault(jobs.at(index));
     nlohmann::ordered_json record = run_job(jobs.at(index), options.out, staging, cache);
     if (!write_all(out, record.dump() + "\n")) ::_exit(1);
   }
@@ -230,7 +208,7 @@ nlohmann::ordered_json request_settings_json(const scene::RetargetRequest& reque
           {"parts", retarget::parts_name(request.parts)},
           {"fps", request.fps},
           {"bvh_metres_per_unit", request.bvh_metres_per_unit ? nlohmann::ordered_json(*request.bvh_metres_per_unit)
-                                                               : nlohmann::ordered_json("default")},
+                                                               : nlohmann::ordered_json("auto")},
           {"betas", betas_policy_name(request.betas)},
           {"source_rest", request.options.source_rest == retarget::SourceRest::rest ? "rest" : "first-frame"},
           {"map", request.map_path.value_or("")},
@@ -264,6 +242,13 @@ BatchSummary run_batch(std::vector<Job> jobs, const BatchOptions& options, const
   const fs::path staging = fs::path(options.out) / ".staging" / (shard.empty() ? "whole" : "shard-" + std::to_string(options.shard.index) + "-of-" + std::to_string(options.shard.count));
   fs::remove_all(staging);
   fs::create_directories(staging);
+  if (options.shard.whole()) {
+    // What a killed run left of its report (the journal's lock says no other run is here).
+    for (const auto& entry : fs::directory_iterator(options.out)) {
+      const std::string name = entry.path().filename().string();
+      if (name.rfind("report.json.partial-", 0) == 0 || name.rfind("report.csv.partial-", 0) == 0) fs::remove(entry.path());
+    }
+  }
 
   // Keys, and the jobs already done with the same key whose folder is there.
   FileHasher hasher;
@@ -316,16 +301,20 @@ BatchSummary run_batch(std::vector<Job> jobs, const BatchOptions& options, const
     int down[2], up[2];
     if (::pipe2(down, O_CLOEXEC) != 0 || ::pipe2(up, O_CLOEXEC) != 0) throw std::runtime_error("cannot create a pipe for a worker");
     std::fflush(nullptr);
+    const pid_t parent = ::getpid();
     const pid_t pid = ::fork();
     if (pid < 0) throw std::runtime_error("cannot start a worker process");
     if (pid == 0) {
-      ::close(down[1]);
-      ::close(up[0]);
-      for (const Worker& other : workers) {
-        if (other.to >= 0) ::close(other.to);
-        if (other.from >= 0) ::close(other.from);
-      }
-      worker_main(down[0], up[1], mine, worker_options, staging.string());
+      // A worker dies with the batch (kill -9 included), so no orphan finishes a job into a folder
+      // that a rerun is already using.
+      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+      if (::getppid() != parent) ::_exit(1);
+      // Keep only stdio and the worker's two pipe ends (as fds 3 and 4): the journal's lock
+      // among the rest must go with the batch, not linger in a worker.
+      const int in = ::fcntl(down[0], F_DUPFD, 64), out = ::fcntl(up[1], F_DUPFD, 64);
+      if (in < 0 || out < 0 || ::dup2(in, 3) != 3 || ::dup2(out, 4) != 4) ::_exit(1);
+      ::close_range(5, ~0U, 0);
+      worker_main(3, 4, mine, worker_options, staging.string());
     }
     ::close(down[0]);
     ::close(up[1]);
@@ -437,11 +426,13 @@ BatchSummary run_batch(std::vector<Job> jobs, const BatchOptions& options, const
   }
   std::error_code error;
   fs::remove_all(staging, error);
+  fs::remove(staging.parent_path(), error);  // DIR/.staging, unless another shard is using it
   report(nullptr);
 
   BatchSummary summary;
   summary.counts = counts;
-  summary.reports = write_batch_report(options.out, read_journals(options.out), options.gates);
+  // Shards of an array may share DIR and end at any time: their report is batch-report's, once all have ended.
+  if (options.shard.whole()) summary.reports = write_batch_report(options.out, read_journals(options.out), options.gates);
   return summary;
 }
 

@@ -35,9 +35,9 @@ struct Shard {
   bool whole() const { return count == 1; }
   std::string text() const { return std::to_string(index) + "/" + std::to_string(count); }
 };
-// "I/N" with 1 <= I <= N, or "slurm": from SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_MIN (default 0
-// when absent... 1-based arrays too) and SLURM_ARRAY_TASK_COUNT. Throws std::invalid_argument
-// with the problem.
+// "I/N" with 1 <= I <= N, or "slurm": shard ID - MIN + 1 of COUNT from SLURM_ARRAY_TASK_ID,
+// SLURM_ARRAY_TASK_MIN (0 when unset) and SLURM_ARRAY_TASK_COUNT, so --array=0-3 and --array=1-4
+// both work. Throws std::invalid_argument with the problem.
 Shard parse_shard(const std::string& text);
 
 // Metric limits past which a done job is flagged (unset: no gate).

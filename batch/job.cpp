@@ -177,8 +177,10 @@ Job job_from_row(const Row& row, const std::string& manifest, const JobDefaults&
   }
   if (const auto text = get("bvh_units")) {
     const auto units = io::parse_bvh_units(*text);
-    if (!units) fail(manifest, row.at("bvh_units"), "expected a BVH unit (" + std::string(io::kBvhUnitsHelp) + "), got '" + *text + "'");
-    job.request.bvh_metres_per_unit = units;
+    if (!units && *text != "auto") {
+      fail(manifest, row.at("bvh_units"), "expected a BVH unit (" + std::string(io::kBvhUnitsHelp) + "), got '" + *text + "'");
+    }
+    job.request.bvh_metres_per_unit = units;  // auto: inferred from the skeleton's height
   }
   if (const auto text = get("betas")) {
     const auto policy = parse_betas_policy(*text);
@@ -372,6 +374,17 @@ void check_job_names(const std::vector<Job>& jobs) {
       throw std::invalid_argument("two jobs would write into " + job.name + ": " + other.request.motion_path + " onto " +
                                   other.request.character_path + ", and " + job.request.motion_path + " onto " +
                                   job.request.character_path + " (rename one, or list the jobs in a manifest with names)");
+    }
+  }
+  // A job's folder must not hold another's: replacing "a/b" would take "a/b/c" with it. In name
+  // order a name's descendants ("a/b/...") follow it directly, after names like "a/b-c" or "a/b.c"
+  // that sort between; so look at the names after each until one no longer starts with it.
+  for (auto it = by_name.begin(); it != by_name.end(); ++it) {
+    for (auto next = std::next(it); next != by_name.end() && next->first.compare(0, it->first.size(), it->first) == 0; ++next) {
+      if (next->first[it->first.size()] == '/') {
+        throw std::invalid_argument("job " + it->first + " (" + it->second->source + ") would hold job " + next->first + " (" +
+                                    next->second->source + ") in its folder; rename one");
+      }
     }
   }
 }

@@ -5,8 +5,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <memory>
 #include <new>
+#include <string_view>
+#include <vector>
 
 #include "batch/journal.h"
 #include "scene_layouts/pipeline.h"
@@ -38,6 +43,34 @@ std::vector<std::string> sync_folder(const fs::path& folder) {
   sync_path(folder, O_RDONLY | O_DIRECTORY);
   std::sort(files.begin(), files.end());
   return files;
+}
+
+// Fault injection for the tests of worker isolation: ODYSSEY_BATCH_FAULT=KIND:TEXT[,KIND:TEXT...]
+// makes a job whose name contains TEXT abort (crash), never finish (hang) or allocate without end
+// (oom), inside the job as a real fault would be.
+void inject_fault(const Job& job) {
+  const char* faults = std::getenv("ODYSSEY_BATCH_FAULT");
+  if (!faults) return;
+  std::string kind;
+  for (std::string_view rest = faults; !rest.empty();) {
+    const std::string_view fault = rest.substr(0, rest.find(','));
+    rest.remove_prefix(std::min(rest.size(), fault.size() + 1));
+    const std::size_t colon = fault.find(':');
+    if (colon != std::string_view::npos && job.name.find(fault.substr(colon + 1)) != std::string::npos) {
+      kind = fault.substr(0, colon);
+    }
+  }
+  if (kind == "crash") std::abort();
+  if (kind == "hang") {
+    for (;;) ::pause();
+  }
+  if (kind == "oom") {
+    std::vector<std::unique_ptr<char[]>> blocks;
+    for (;;) {
+      blocks.emplace_back(new char[64 << 20]);
+      std::memset(blocks.back().get(), 1, 64 << 20);
+    }
+  }
 }
 
 // The one-actor scene of a retarget job, writing the files `outputs` asks for into `folder`.
@@ -100,6 +133,7 @@ nlohmann::ordered_json actor_metrics_json(const scene::RetargetedActor& actor) {
           {"limbs_mean_deg", limbs},
           {"skate", result.foot_skate_ratio},
           {"source_skate", source.foot_skate_ratio},
+          {"skate_gmd", result.foot_skate_ratio_gmd},
           {"penetration_cm", result.penetration_cm},
           {"floating_cm", result.floating_cm},
           {"jitter", result.jitter},
@@ -115,6 +149,7 @@ nlohmann::ordered_json run_job(const Job& job, const std::string& out, const std
     std::error_code error;
     fs::remove_all(folder, error);
     fs::create_directories(folder);
+    inject_fault(job);
     scene::SceneResult result;
     if (job.scene_path.empty()) {
       result = scene::run_scene(retarget_scene(job, folder), {}, &cache);
@@ -127,14 +162,16 @@ nlohmann::ordered_json run_job(const Job& job, const std::string& out, const std
     const std::vector<std::string> files = sync_folder(folder);
     move_into_place(folder, fs::path(out) / "jobs" / job.name);
     record["status"] = "done";
-    record["error"] = nullptr;
     if (job.scene_path.empty()) {
       record["frames"] = result.actors.at(0).retargeted->clip().frame_count();
       record["metrics"] = actor_metrics_json(*result.actors.at(0).retargeted);
     } else {
       record["frames"] = result.frames;
       nlohmann::ordered_json actors = nlohmann::ordered_json::object();
-      for (const scene::PlacedActor& actor : result.actors) actors[actor.name] = actor_metrics_json(*actor.retargeted);
+      for (const scene::PlacedActor& actor : result.actors) {
+        // An actor playing its own animation or an .anime mesh has no retargeting to measure.
+        if (actor.retargeted) actors[actor.name] = actor_metrics_json(*actor.retargeted);
+      }
       record["metrics"] = {{"actors", actors}};
     }
     record["outputs"] = files;

@@ -1,6 +1,7 @@
 #include "batch/journal.h"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -101,7 +102,8 @@ bool read_journal(const fs::path& path, JournalContents& contents) {
       contents.headers.push_back(std::move(value));
       header = true;
     } else if (value.contains("job") && value["job"].is_string()) {
-      contents.records[value["job"].get<std::string>()] = std::move(value);
+      std::string name = value["job"].get<std::string>();  // before the move below empties `value`
+      contents.records[std::move(name)] = std::move(value);
     } else {
       throw io::InputError(path.string(), "line " + std::to_string(number) + ": not a job record");
     }
@@ -206,6 +208,12 @@ Journal::Journal(const std::string& folder, const std::string& shard, const nloh
   const bool fresh = !fs::exists(path_);
   fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
   if (fd_ < 0) throw io::InputError(path_, std::string("cannot open the journal: ") + std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd_);
+    fd_ = -1;
+    throw io::InputError(path_, errno == EWOULDBLOCK ? "another batch (or the same shard) is running into this folder"
+                                                     : std::string("cannot lock the journal: ") + std::strerror(errno));
+  }
   if (fresh) {
     nlohmann::ordered_json header;
     header["odyssey_batch_journal"] = kJournalVersion;

@@ -12,8 +12,9 @@ namespace fs = std::filesystem;
 namespace {
 
 const char* const kMetricColumns[] = {"bone_error_mean_deg", "bone_error_max_deg", "worst_limb_mean_deg",
-                                      "skate",               "source_skate",       "penetration_cm",
-                                      "floating_cm",         "jitter",             "source_jitter"};
+                                      "skate",               "source_skate",       "skate_gmd",
+                                      "penetration_cm",      "floating_cm",        "jitter",
+                                      "source_jitter"};
 
 std::string csv_cell(const std::string& text) {
   if (text.find_first_of(",\"\r\n") == std::string::npos) return text;

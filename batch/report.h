@@ -7,8 +7,8 @@
 // failed, flagged, not_run, frames, job_seconds}, "gates": {...}, "jobs": [...]}.
 // report.csv: one row per job; columns name, status, error, kind, motion, character, scene,
 // quality, frames, seconds, flags (separated by "; "), the metrics (bone_error_mean_deg,
-// bone_error_max_deg, worst_limb_mean_deg, skate, source_skate, penetration_cm, floating_cm,
-// jitter, source_jitter), then one column per limb (mean direction error, degrees; the union of
+// bone_error_max_deg, worst_limb_mean_deg, skate, source_skate, skate_gmd, penetration_cm,
+// floating_cm, jitter, source_jitter), then one column per limb (mean direction error, degrees; the union of
 // the limbs of every job, sorted). Scene jobs leave the metric columns empty (their actors'
 // metrics are in report.json).
 #pragma once

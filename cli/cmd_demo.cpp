@@ -20,6 +20,7 @@
 #include "mocap_io/bvh.h"
 #include "mocap_io/pose_export.h"
 #include "scene_layouts/pipeline.h"
+#include "scene_layouts/scene_file.h"
 #include "skeleton/body_sequence.h"
 #include "skeleton/synthetic_body.h"
 
@@ -46,7 +47,7 @@ int run_demo(const std::vector<std::string>& arguments) {
             "the bundled indoor scene (two people, furniture, three cameras: odyssey scene). Everything goes\n"
             "to --out.");
   args.option("out", "DIR", "output folder", "demo-out")
-      .option("data", "DIR", "the bundled data folder", ODYSSEY_DATA_DIR)
+      .option("data", "DIR", "the bundled data folder", scene::bundled_data_folder())
       .option("seconds", "S", "length of the synthetic walk", "4")
       .option("fps", "FPS", "output frame rate", "30")
       .option("character", "NAME", "the bundled character to retarget onto (DATA/characters/NAME.glb)", "RiggedFigure")

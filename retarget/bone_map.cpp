@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/install_layout.h"
 #include "retarget/geometry.h"
 
 namespace odyssey::retarget {
@@ -477,9 +478,17 @@ int BoneMap::mapped_count() const {
   return static_cast<int>(std::count_if(joints.begin(), joints.end(), [](int j) { return j >= 0; }));
 }
 
+namespace {
+// The presets ship with the binary: installed under share/odyssey/presets, else the source tree's.
+const std::string& preset_folder() {
+  static const std::string folder = io::runtime_folder("presets", ODYSSEY_PRESET_DIR);
+  return folder;
+}
+}  // namespace
+
 std::vector<std::string> preset_names() {
   std::vector<std::string> names;
-  for (const auto& entry : fs::directory_iterator(ODYSSEY_PRESET_DIR)) {
+  for (const auto& entry : fs::directory_iterator(preset_folder())) {
     if (entry.path().extension() == ".json") names.push_back(entry.path().stem().string());
   }
   std::sort(names.begin(), names.end());
@@ -487,7 +496,7 @@ std::vector<std::string> preset_names() {
 }
 
 io::BoneMapFile load_preset(const std::string& name) {
-  const fs::path path = fs::path(ODYSSEY_PRESET_DIR) / (name + ".json");
+  const fs::path path = fs::path(preset_folder()) / (name + ".json");
   if (!fs::exists(path)) {
     throw io::InputError(path.string(), "no bone map preset '" + name + "' (presets: " + joined(preset_names(), ", ") + ")");
   }

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <set>
 
+#include "mocap_io/install_layout.h"
 #include "mocap_io/json_reader.h"
 #include "mocap_io/motion_file.h"
 
@@ -368,7 +369,8 @@ SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vec
 
 std::string bundled_data_folder() {
   if (const char* folder = std::getenv("ODYSSEY_DATA_DIR"); folder && *folder) return folder;
-  return ODYSSEY_DATA_DIR;
+  static const std::string installed_or_source = io::runtime_folder("data", ODYSSEY_DATA_DIR);
+  return installed_or_source;
 }
 
 SceneFile parse_scene(const std::string& json_text, const std::string& path) {

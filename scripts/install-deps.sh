@@ -7,6 +7,7 @@ packages=(
   libgtest-dev libbenchmark-dev zlib1g-dev libpng-dev
   python3-numpy  # tests cross-check the npz files with numpy
   blender  # tests import the scene GLB into Blender 3.4 headless (80 MB download, 520 MB installed)
+  slurmctld slurmd slurm-client munge  # the batch's cluster path runs on a one-node Slurm (scripts/slurm-local.sh)
 )
 as_root=()
 [ "$(id -u)" -eq 0 ] || as_root=(sudo)
