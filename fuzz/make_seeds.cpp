@@ -1,10 +1,12 @@
 // Writes small seed inputs for the harnesses whose formats the shared assets do not hold:
-//   make_seeds OUT   ->   OUT/npy, OUT/npz, OUT/body_model, OUT/amass, OUT/camera_path, OUT/obj
+//   make_seeds OUT   ->   OUT/npy, OUT/npz, OUT/body_model, OUT/amass, OUT/camera_path, OUT/obj,
+//                         OUT/anime, OUT/camera_import, OUT/manifest
 // Seeds are kept small (a few KB), so libFuzzer's default maximum input length stays small and
 // executions stay fast. Every seed is a valid file, written by the project's own writers (plus a
 // few hand-made npy headers for layouts the writer never produces: big endian, Fortran order).
 #include <Eigen/Sparse>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -103,7 +105,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   const fs::path out = argv[1];
-  for (const char* harness : {"npy", "npz", "body_model", "amass", "camera_path", "obj"}) fs::create_directories(out / harness);
+  for (const char* harness : {"npy", "npz", "body_model", "amass", "camera_path", "obj", "anime", "camera_import", "manifest"}) {
+    fs::create_directories(out / harness);
+  }
 
   // npy: each dtype family, 0-d, empty, strings, plus hand-made big-endian and Fortran layouts.
   const std::vector<double> doubles = {0.5, -1.25, 3.0, 1e-3, 2.0, -7.5};
@@ -192,5 +196,41 @@ int main(int argc, char** argv) {
   write_text(out / "obj" / "quad.obj",
              "# a quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\ng quad\nusemtl none\n"
              "f 1 2 3\nf 1/1 3/1 4/1\nf 1//1 2//1 3//1\nf 1/1/1 2/1/1 3/1/1 4/1/1\nf -4 -3 -2\n");
+
+  // .anime: a triangle over three frames (int32 nf nv nt; float32 first frame; int32 triangles;
+  // float32 offsets of frames 2..nf).
+  {
+    std::string bytes;
+    const auto put = [&](const auto value) { bytes.append(reinterpret_cast<const char*>(&value), sizeof value); };
+    put(std::int32_t{3}), put(std::int32_t{3}), put(std::int32_t{1});
+    for (const float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) put(v);
+    for (const std::int32_t i : {0, 1, 2}) put(i);
+    for (int frame = 1; frame < 3; ++frame) {
+      for (int v = 0; v < 9; ++v) put(0.1f * static_cast<float>(frame) * static_cast<float>(v % 3 == 2));
+    }
+    write_text(out / "anime" / "triangle.anime", bytes);
+  }
+
+  // Camera tracks: the first byte picks the reader (even: RealEstate10K, odd: COLMAP with
+  // cameras.txt and images.txt split by a NUL byte), as fuzz_camera_import.cpp reads them.
+  write_text(out / "camera_import" / "realestate10k.txt",
+             std::string(1, '\0') +
+                 "https://www.youtube.com/watch?v=seed\n"
+                 "0 0.5 0.9 0.5 0.5 0 0 1 0 0 0 0 1 0 0 0 0 1 0\n"
+                 "33366 0.5 0.9 0.5 0.5 0 0 1 0 0 0.1 0 1 0 0 0 0 1 0\n");
+  write_text(out / "camera_import" / "colmap.txt",
+             std::string(1, '\1') +
+                 "# Camera list\n1 PINHOLE 960 540 500 500 480 270\n2 SIMPLE_RADIAL 640 480 400 320 240 0.01\n" +
+                 std::string(1, '\0') +
+                 "# Image list\n1 1 0 0 0 0 0 0 1 frame00001.png\n\n2 0.9998 0 0.02 0 0.1 0 0 2 frame00002.png\n\n");
+
+  // Batch manifests: the first byte picks CSV (even) or JSON (odd), as fuzz_manifest.cpp reads them.
+  write_text(out / "manifest" / "jobs.csv", std::string(1, '\0') +
+                                                "name,motion,character,quality,fps,outputs\n"
+                                                "a/walk,walk.bvh,Robot.glb,fast,30,glb\n"
+                                                ",\"jump, high.bvh\",Fox.glb,,60,\"glb,report\"\n");
+  write_text(out / "manifest" / "jobs.json", std::string(1, '\1') +
+                                                 R"({"jobs": [{"motion": "walk.bvh", "character": "Robot.glb", "quality": "accurate",)"
+                                                 R"( "fps": 30, "bvh_units": "cmu"}, {"scene": "shot.json", "name": "s/1"}]})");
   return 0;
 }

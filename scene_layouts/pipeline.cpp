@@ -767,9 +767,11 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
     // Relative to the report's folder, so the pair can move together (a batch builds them in a
     // staging folder and renames it) and a report does not depend on where the run wrote.
     namespace fs = std::filesystem;
-    const fs::path report_folder = fs::absolute(outputs.actor_reports[a]).parent_path();
-    const std::string glb = fs::absolute(outputs.glb).lexically_normal().lexically_relative(report_folder.lexically_normal()).generic_string();
-    json["inputs"]["output"] = outputs.glb.empty() ? nlohmann::ordered_json() : nlohmann::ordered_json(glb);
+    json["inputs"]["output"] = nullptr;
+    if (!outputs.glb.empty()) {
+      const fs::path report_folder = fs::absolute(outputs.actor_reports[a]).parent_path().lexically_normal();
+      json["inputs"]["output"] = fs::absolute(outputs.glb).lexically_normal().lexically_relative(report_folder).generic_string();
+    }
     json["settings"]["camera"] = result.cameras.empty() ? nlohmann::ordered_json() : nlohmann::ordered_json(result.cameras[0].kind);
     json["timings_s"]["command"]["write_outputs"] = result.seconds.streams;
     json["timings_s"]["command"]["total"] = result.seconds.total;

@@ -10,7 +10,7 @@
 #     SECONDS_PER_HARNESS   -max_total_time of each harness (default 30, the CI-sized run; 0: no limit)
 #     RUNS_PER_HARNESS      -runs of each harness (default -1: no limit); a harness stops at
 #                           whichever limit comes first
-#   ODYSSEY_FUZZ_HARNESSES  space-separated subset to run (default: all ten)
+#   ODYSSEY_FUZZ_HARNESSES  space-separated subset to run (default: all thirteen)
 #   ODYSSEY_FUZZ_BUILD_JOBS parallel compile jobs (default: nproc)
 #   ODYSSEY_SHARED_DIR      the shared folder (default: ../shared beside the checkout)
 #   ODYSSEY_FUZZ_NO_BUILD=1 run the harnesses already in build-fuzz/ (no configure, no build)
@@ -24,7 +24,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 shared=${ODYSSEY_SHARED_DIR:-$(dirname "$0")/../../shared}
 seconds=${1:-30}
 runs=${2:--1}
-harnesses=(${ODYSSEY_FUZZ_HARNESSES:-npy npz body_model amass bvh gltf bone_map camera_path obj scene})
+harnesses=(${ODYSSEY_FUZZ_HARNESSES:-npy npz body_model amass bvh gltf bone_map camera_path obj scene anime camera_import manifest})
 build="$root/build-fuzz"
 
 # clang 14 and its runtime libraries (libFuzzer, the sanitizers), as scripts/install-deps.sh
@@ -83,6 +83,9 @@ seed bone_map "$root"/retarget/presets/*.json
 seed camera_path "$generated"/camera_path/*
 seed obj "$generated"/obj/*
 seed scene "$root"/data/scenes/*.json
+seed anime "$generated"/anime/*
+seed camera_import "$generated"/camera_import/*
+seed manifest "$generated"/manifest/*
 
 failed=0
 rows=()
