@@ -6,8 +6,9 @@
 // Clips: the CMU walk (344 frames at 120 fps, 86 at 30), the CMU jump (2,752 at 120, 688 at 30),
 // both at kCmuMetresPerUnit, and a synthetic SMPL-X walk (synthetic_walk, seed 1, 120 frames at
 // 30 fps) posed on the synthetic SMPL-X body (seed 0), as the CLI poses an AMASS sequence without
-// --model. Characters: the Mixamo-named test rig (reference_rig.h, A-pose), RiggedFigure and
-// RobotExpressive (IK-style feet).
+// --model. Characters: the Mixamo-named test rig (reference_rig.h, A-pose) and every shared
+// humanoid: RiggedFigure, CesiumMan, RobotExpressive (IK-style one-joint feet), the Rigify
+// male_base_mesh (A-pose) and the KayKit mannequin (stylised: big head, short legs).
 //
 // Settings: fast; balanced and accurate with refine.h's defaults; and three accurate variants
 // between them: 3 window iterations instead of 10 (cheaper), windows of 16 frames with 4 of
@@ -135,9 +136,13 @@ struct Row {
   double fps() const { return job->fast.report.frames / seconds; }
 };
 
-// The body map of a rig, as `odyssey retarget --parts body` makes it.
+// The body map of a rig or a character (which may declare its humanoid bones), as
+// `odyssey retarget --parts body` makes it.
 BoneMap body_map(const Skeleton& skeleton, const std::string& label) {
   return restrict_bone_map(humanoid_bone_map(skeleton, label), Parts::body);
+}
+BoneMap body_map(const Character& character, const std::string& label) {
+  return restrict_bone_map(humanoid_bone_map(character, label), Parts::body);
 }
 
 std::vector<Motion> load_motions() {
@@ -161,10 +166,15 @@ std::vector<Target> load_targets() {
   Character mixamo = mixamo_reference_character(45.0);
   BoneMap mixamo_map = body_map(mixamo.skeleton, "Mixamo test rig");
   targets.push_back({"Mixamo rig", std::move(mixamo), std::move(mixamo_map)});
-  for (const char* name : {"RiggedFigure", "RobotExpressive"}) {
-    const std::string path = kAssets + "/characters/" + name + ".glb";
+  const std::pair<const char*, const char*> shared[] = {{"RiggedFigure", "RiggedFigure.glb"},
+                                                        {"CesiumMan", "CesiumMan.glb"},
+                                                        {"RobotExpressive", "RobotExpressive.glb"},
+                                                        {"Rigify base mesh", "male_base_mesh.glb"},
+                                                        {"KayKit mannequin", "kaykit_mannequin/manny_med_mod.gltf"}};
+  for (const auto& [name, file] : shared) {
+    const std::string path = kAssets + "/characters/" + file;
     Character character = io::load_character(path);
-    BoneMap map = body_map(character.skeleton, path);
+    BoneMap map = body_map(character, path);
     targets.push_back({name, std::move(character), std::move(map)});
   }
   return targets;
@@ -238,6 +248,12 @@ void time_refine(benchmark::State& state, Row& row) {
   state.SetItemsProcessed(std::int64_t(state.iterations()) * row.job->fast.report.frames);
 }
 
+// Jitter (mean joint jerk, m/s^2: metrics.h) over the source's on the same clip.
+double jitter_ratio(const Row& row) {
+  const double source = row.job->fast.report.source_metrics.jitter;
+  return source > 0 ? row.metrics.jitter / source : 0;
+}
+
 const NamedDirectionError& worst_limb(const RetargetMetrics& metrics) {
   return *std::max_element(metrics.limbs.begin(), metrics.limbs.end(),
                            [](const auto& a, const auto& b) { return a.error.mean_deg < b.error.mean_deg; });
@@ -269,8 +285,9 @@ void print_table(const std::vector<Row>& rows) {
               "included, \"solvers\": its solvers alone); bone direction over the mapped chain bones; "
               "source values in brackets\n\n");
   std::printf("| clip | character | setting | frames/s | solvers frames/s | bone dir. mean / max (deg) | worst limb mean (deg) "
-              "| end effector mean (cm) | foot skate ratio | penetration (cm) | floating (cm) | jitter (m/s²) |\n");
-  std::printf("|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---:|\n");
+              "| end effector mean (cm) | skate, scale-aware | skate, GMD | penetration (cm) | floating (cm) | jitter (m/s²) "
+              "| jitter / source's |\n");
+  std::printf("|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|\n");
   for (const Row& row : rows) {
     if (!row.measured) continue;  // filtered out of this run
     const RetargetMetrics& m = row.metrics;
@@ -278,19 +295,23 @@ void print_table(const std::vector<Row>& rows) {
     const NamedDirectionError& limb = worst_limb(m);
     const std::string solvers =
         row.setting->options.quality == Quality::fast ? "-" : thousands(row.job->fast.report.frames / row.solve_seconds);
-    std::printf("| %s | %s | %s | %s | %s | %.2f / %.1f | %.2f %s | %.1f | %.3f (%.3f) | %.2f (%.2f) | %.2f (%.2f) | %.1f (%.1f) |\n",
+    std::printf("| %s | %s | %s | %s | %s | %.2f / %.1f | %.2f %s | %.1f | %.3f (%.3f) | %.3f (%.3f) | %.2f (%.2f) | %.2f (%.2f) "
+                "| %.1f (%.1f) | %.2f |\n",
                 row.job->motion->name.c_str(), row.job->target->name.c_str(), row.setting->name.c_str(),
                 thousands(row.fps()).c_str(), solvers.c_str(), m.bone_direction.mean_deg, m.bone_direction.max_deg,
                 limb.error.mean_deg, limb.name.c_str(), 1e2 * m.end_effector_mean_m, m.foot_skate_ratio, s.foot_skate_ratio,
-                m.penetration_cm, s.penetration_cm, m.floating_cm, s.floating_cm, m.jitter, s.jitter);
+                m.foot_skate_ratio_gmd, s.foot_skate_ratio_gmd, m.penetration_cm, s.penetration_cm, m.floating_cm,
+                s.floating_cm, m.jitter, s.jitter, jitter_ratio(row));
   }
 }
+
+constexpr std::size_t kMeasureCount = 4;
 
 // One point of the plot: a setting on a character, over every clip run. Accuracy values are the
 // worst clip's: the aims hold for every clip.
 struct PlotPoint {
   double fps = 0;  // all clips' frames over all clips' best times
-  std::array<double, 3> values = {-1e9, -1e9, -1e9};  // one per plotted measure (kMeasures)
+  std::array<double, kMeasureCount> values = {-1e9, -1e9, -1e9, -1e9};  // one per plotted measure (kMeasures)
 };
 
 struct Measure {
@@ -300,14 +321,17 @@ struct Measure {
   double (*of)(const Row& row);
 };
 
-// What the plot's rows show: the bone direction aim, the contact aim and the skating aim.
-const std::array<Measure, 3> kMeasures = {{
+// What the plot's rows show: the bone direction aim, the contact aim, the skating aim (skate with
+// thresholds scaled by the character's size, metrics.h) and the smoothness aim (balanced's 1.3;
+// accurate's is 1.1).
+const std::array<Measure, kMeasureCount> kMeasures = {{
     {"worst limb, mean error (deg)", "aim < 2 deg", kLimbAimDeg,
      [](const Row& row) { return worst_limb(row.metrics).error.mean_deg; }},
     {"penetration | floating (cm)", "aim < 1 cm", kContactAimCm,
      [](const Row& row) { return std::max(row.metrics.penetration_cm, row.metrics.floating_cm); }},
     {"skate ratio - source's", "aim <= 0 (no worse than the source)", 0.0,
      [](const Row& row) { return row.metrics.foot_skate_ratio - row.job->fast.report.source_metrics.foot_skate_ratio; }},
+    {"jitter / source's", "aim <= 1.3 (balanced; accurate 1.1)", 1.3, jitter_ratio},
 }};
 
 // Text as SVG character data.
@@ -370,7 +394,7 @@ std::string trade_svg(const std::vector<Row>& rows, const std::vector<Setting>& 
 
   // x: whole decades around the data and the speed aims; y: the data, the aim and zero.
   double low = kAccurateAimFps, high = kFastAimFps;
-  std::array<double, 3> y_low, y_high;
+  std::array<double, kMeasureCount> y_low, y_high;
   for (std::size_t m = 0; m < kMeasures.size(); ++m) {
     y_low[m] = std::min(0.0, kMeasures[m].aim_value);
     y_high[m] = std::max(kMeasures[m].aim_value * 1.5, 1e-6);
@@ -383,7 +407,7 @@ std::string trade_svg(const std::vector<Row>& rows, const std::vector<Setting>& 
       y_high[m] = std::max(y_high[m], point.values[m]);
     }
   }
-  std::array<double, 3> y_step;
+  std::array<double, kMeasureCount> y_step;
   for (std::size_t m = 0; m < kMeasures.size(); ++m) {
     y_step[m] = tick_step(y_high[m] - y_low[m]);
     y_low[m] = std::floor(y_low[m] / y_step[m] + 1e-9) * y_step[m];
@@ -406,8 +430,9 @@ std::string trade_svg(const std::vector<Row>& rows, const std::vector<Setting>& 
       << "the others: the refine() call), pooled over the CMU walk, CMU jump and SMPL-X walk.</text>\n"
       << "<text x=\"" << left << "\" y=\"56\" fill=\"#444\">y, the worst clip's: the worst limb's mean bone direction "
       << "error; the larger of mean penetration and floating during contact;</text>\n"
-      << "<text x=\"" << left << "\" y=\"70\" fill=\"#444\">the foot skate ratio minus the source's. Dashed: the aims "
-      << "(verticals: speed per quality; horizontals: accuracy). Better is down and right.</text>\n";
+      << "<text x=\"" << left << "\" y=\"70\" fill=\"#444\">the foot skate ratio (scale-aware) minus the source's; the jitter "
+      << "over the source's. Dashed: the aims (verticals: speed per quality; horizontals: accuracy). Better is down and "
+      << "right.</text>\n";
 
   for (std::size_t c = 0; c < targets.size(); ++c) {
     const double x0 = left + c * (panel_w + gap_x);
