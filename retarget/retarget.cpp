@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <numbers>
 #include <nlohmann/json.hpp>
 
 namespace odyssey::retarget {
@@ -100,6 +101,7 @@ RetargetResult retarget_fast(const Clip& source, const BoneMap& source_map, cons
   report.target_height = rig.target_height;
   report.scale = rig.scale;
   report.floor_offset = result.transfer.floor_offset;
+  report.source_levelling = result.source_feet.levelling;
   report.planted_left = static_cast<int>(std::count(result.contacts.planted[0].begin(), result.contacts.planted[0].end(), 1));
   report.planted_right = static_cast<int>(std::count(result.contacts.planted[1].begin(), result.contacts.planted[1].end(), 1));
   return result;
@@ -108,8 +110,11 @@ RetargetResult retarget_fast(const Clip& source, const BoneMap& source_map, cons
 nlohmann::ordered_json report_json(const RetargetReport& report) {
   nlohmann::ordered_json json;
   json["quality"] = report.quality;
+  const Eigen::Quaterniond& level = report.source_levelling;
   json["source"] = {{"name", report.source_name}, {"frames", report.frames}, {"fps", report.fps},
-                    {"map", report.source_map_origin}, {"height_m", report.source_height}};
+                    {"map", report.source_map_origin}, {"height_m", report.source_height},
+                    {"levelling", {{"tilt_deg", level.angularDistance(Eigen::Quaterniond::Identity()) * 180 / std::numbers::pi},
+                                   {"quaternion_wxyz", {level.w(), level.x(), level.y(), level.z()}}}}};
   json["target"] = {{"name", report.target_name}, {"map", report.target_map_origin}, {"height_m", report.target_height}};
   json["scale"] = report.scale;
   json["floor_offset_m"] = report.floor_offset;

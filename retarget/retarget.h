@@ -57,6 +57,9 @@ struct RetargetReport {
   AlignmentSummary alignment;
   double source_height = 0, target_height = 0, scale = 1;
   double floor_offset = 0;
+  // World -> levelled world of the source (contacts.h): its floor fitted from the stance heights
+  // turned horizontal. Every comparison with the source (metrics included) is in the levelled world.
+  Eigen::Quaterniond source_levelling = Eigen::Quaterniond::Identity();
   int planted_left = 0, planted_right = 0;  // source frames with the foot planted
   RetargetMetrics source_metrics, result_metrics;
   RetargetTimings timings;
