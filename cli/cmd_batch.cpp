@@ -157,6 +157,7 @@ int run_batch(const std::vector<std::string>& arguments) {
   add_gate_options(args);
   if (!args.parse(arguments)) return 0;
 
+  if (args.has("threads")) throw UsageError("--threads: a batch runs one thread per job and --jobs jobs at once; use --jobs");
   const std::string out = args.get("out");
   batch::JobDefaults defaults;
   defaults.request = retarget_settings_from(args, "", "");

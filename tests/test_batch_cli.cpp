@@ -269,6 +269,7 @@ TEST(BatchCli, BadListsShardsManifestsAndAnotherBatchsFolderAreRefusedInOneLine)
           1, "empty: the folder holds no motion file");
   refused(batch_arguments(inputs, out, "--shard 3/2"), 2, "--shard 3/2: I must be 1 to N");
   refused(batch_arguments(inputs, out, "--shard 0/0"), 2, "--shard 0/0: I must be 1 to N");
+  refused(batch_arguments(inputs, out, "--threads 2"), 2, "--threads: a batch runs one thread per job");
   write(dir / "m.csv", "motion,character,fps\nmotions/walk_a.bvh,chars/CesiumMan.glb,thirty\n");
   refused("batch --manifest " + quoted(dir / "m.csv") + " --out " + quoted(out), 1, "m.csv: line 2, column fps: expected a frame rate");
   EXPECT_FALSE(fs::exists(out));
