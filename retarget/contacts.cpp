@@ -46,6 +46,47 @@ double percentile(std::vector<double> values, double fraction) {
   return *nth;
 }
 
+// The toe of a one-joint foot from the rest mesh it carries (contacts.h): at the height of the
+// sole's front-most vertex, as far ahead of the joint as it; no toe when the foot carries no mesh
+// or nothing lies ahead of the joint.
+void find_toe(const Character& target, const std::vector<RigidTransform<double>>& rest, double sole, Foot& foot) {
+  const int joint = foot.joints[0];
+  std::vector<Eigen::Vector3d> carried;
+  for (const CharacterMesh& mesh : target.meshes) {
+    const std::vector<Eigen::Vector3d> vertices = skin_mesh_reference(mesh, rest);
+    for (std::size_t v = 0; v < vertices.size(); ++v) {
+      const auto& weights = mesh.influence_weights[v];
+      const int strongest = static_cast<int>(std::max_element(weights.begin(), weights.end()) - weights.begin());
+      if (is_ancestor(target.skeleton, joint, mesh.skin_joints[mesh.influence_slots[v][strongest]])) carried.push_back(vertices[v]);
+    }
+  }
+  if (carried.empty()) return;
+  const Eigen::Vector3d& at = rest[joint].translation;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  double low = std::numeric_limits<double>::infinity(), high = -low;
+  for (const Eigen::Vector3d& p : carried) {
+    centroid += p;
+    low = std::min(low, p.z());
+    high = std::max(high, p.z());
+  }
+  centroid /= static_cast<double>(carried.size());
+  Eigen::Vector3d ahead(centroid.x() - at.x(), centroid.y() - at.y(), 0.0);
+  if (ahead.norm() < 1e-6 * (high - low + 1e-9)) return;
+  ahead.normalize();
+  const Eigen::Vector3d* toe = nullptr;
+  for (const Eigen::Vector3d& p : carried) {
+    if (p.z() <= low + 0.1 * (high - low) && (!toe || ahead.dot(p - at) > ahead.dot(*toe - at))) toe = &p;
+  }
+  const double reach = ahead.dot(*toe - at);
+  if (reach <= 0) return;
+  // Straight ahead of the joint (not at a corner of the sole), so the foot pitches about its
+  // lateral axis.
+  const Eigen::Vector3d front(at.x() + reach * ahead.x(), at.y() + reach * ahead.y(), toe->z());
+  foot.has_toe = true;
+  foot.toe = rest[joint].rotation.transpose() * (front - at);
+  foot.toe_ground_height = toe->z() - sole;
+}
+
 }  // namespace
 
 int FootContacts::planted_count() const {
@@ -70,6 +111,24 @@ int lowest_foot_joint(const Foot& foot, std::span<const Eigen::Vector3d> joint_p
 double foot_clearance(const Foot& foot, std::span<const Eigen::Vector3d> joint_positions) {
   const int k = lowest_foot_joint(foot, joint_positions);
   return joint_positions[foot.joints[k]].z() - foot.ground_heights[k];
+}
+
+int lowest_foot_point(const Foot& foot, std::span<const Eigen::Vector3d> joint_positions, const Eigen::Matrix3d& first_rotation) {
+  int lowest = 0;
+  double best = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < foot.point_count(); ++k) {
+    const double height = foot.point(k, joint_positions, first_rotation).z() - foot.point_ground_height(k);
+    if (height < best) {
+      best = height;
+      lowest = k;
+    }
+  }
+  return lowest;
+}
+
+double foot_clearance(const Foot& foot, std::span<const Eigen::Vector3d> joint_positions, const Eigen::Matrix3d& first_rotation) {
+  const int k = lowest_foot_point(foot, joint_positions, first_rotation);
+  return foot.point(k, joint_positions, first_rotation).z() - foot.point_ground_height(k);
 }
 
 Feet source_feet(const Clip& source, const BoneMap& map, const ContactOptions& options) {
@@ -173,6 +232,7 @@ Feet target_feet(const Character& target, const BoneMap& map) {
   const std::vector<RigidTransform<double>> rest = target.skeleton.rest_world();
   for (Foot& foot : feet.sides) {
     for (std::size_t k = 0; k < foot.joints.size(); ++k) foot.ground_heights[k] = rest[foot.joints[k]].translation.z() - sole;
+    if (foot.joints.size() == 1) find_toe(target, rest, sole, foot);
   }
   return feet;
 }

@@ -10,6 +10,17 @@
 // 0 for a foot flat on the floor, negative when it sinks in. Taking the lowest of ankle and ball
 // keeps a heel strike and a toe-off (either end down) at clearance ~0. The floor is z = 0.
 //
+// A target foot of one joint (no ball of the foot, as RobotExpressive's: a rigid block whose joint
+// sits at the heel, 4.5 cm above its sole, its toe 0.84 m ahead) has no joint to stand on at
+// toe-off. Its toe is taken from its mesh: of the rest vertices the foot carries (whose strongest
+// influence is the foot joint or a joint below it), those within a tenth of the carried height of
+// the lowest, the one farthest ahead (ahead: from the joint toward the carried vertices' centroid,
+// horizontally) gives the toe's height and reach, and the toe is that far straight ahead of the
+// joint. It is a point rigid with the joint (Foot::toe, in the joint's frame), counted
+// among the foot's points with its own ground height: clearance(t) is then the lowest of heel and
+// toe, and a foot that rolls over its toe at toe-off stays at clearance ~0 as a two-joint foot
+// does. A foot with a ball of the foot, a source's foot, or a foot that carries no mesh has none.
+//
 // The floor. A target character stands on z = 0 with its soles on the floor at rest: each foot
 // joint's ground height is its rest height above the lowest point of the rest mesh
 // (Character::rest_bounds). A recorded clip says neither where the floor is nor where the soles
@@ -54,6 +65,20 @@ namespace odyssey::retarget {
 struct Foot {
   std::vector<int> joints;             // rig joints: the ankle, then the ball of the foot, if mapped
   std::vector<double> ground_heights;  // height of each above the floor with the foot planted, m
+  // One-joint target feet (above): the front of the sole, in joints[0]'s frame (its world
+  // rotation's), and its height above the floor with the foot planted flat.
+  bool has_toe = false;
+  Eigen::Vector3d toe = Eigen::Vector3d::Zero();
+  double toe_ground_height = 0;
+
+  // The foot's contact points: its joints, then the toe if it has one.
+  int point_count() const { return static_cast<int>(joints.size()) + (has_toe ? 1 : 0); }
+  double point_ground_height(int k) const { return k < static_cast<int>(joints.size()) ? ground_heights[k] : toe_ground_height; }
+  // World position of point k from the joints' world positions and joints[0]'s world rotation.
+  Eigen::Vector3d point(int k, std::span<const Eigen::Vector3d> joint_positions, const Eigen::Matrix3d& first_rotation) const {
+    return k < static_cast<int>(joints.size()) ? joint_positions[joints[k]]
+                                               : Eigen::Vector3d(joint_positions[joints[0]] + first_rotation * toe);
+  }
 };
 
 struct Feet {
@@ -76,15 +101,20 @@ struct FootContacts {
   int planted_count() const;
 };
 
-// clearance(t) above for one foot, from the levelled world positions of the rig's joints.
+// clearance(t) above for one foot, from the levelled world positions of the rig's joints (the
+// foot's joints only: its toe needs a rotation).
 double foot_clearance(const Foot& foot, std::span<const Eigen::Vector3d> joint_positions);
 // Index into foot.joints of the joint that is lowest relative to its ground height.
 int lowest_foot_joint(const Foot& foot, std::span<const Eigen::Vector3d> joint_positions);
+// The same over every point of the foot, its toe included (`first_rotation`: joints[0]'s world
+// rotation); the index is a point's (Foot::point).
+double foot_clearance(const Foot& foot, std::span<const Eigen::Vector3d> joint_positions, const Eigen::Matrix3d& first_rotation);
+int lowest_foot_point(const Foot& foot, std::span<const Eigen::Vector3d> joint_positions, const Eigen::Matrix3d& first_rotation);
 
 // The fitted floor and ground heights (see above). Throws std::invalid_argument when the map has
 // neither ankle nor ball of the foot for a side, or the clip has no frames.
 Feet source_feet(const Clip& source, const BoneMap& map, const ContactOptions& options = {});
-// Ground heights from the character's rest pose (see above). Throws std::invalid_argument when
+// Ground heights from the character's rest pose, and the toe of a one-joint foot (see above). Throws std::invalid_argument when
 // the map has neither ankle nor ball of the foot for a side.
 Feet target_feet(const Character& target, const BoneMap& map);
 

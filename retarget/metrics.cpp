@@ -53,21 +53,30 @@ void motion_metrics(const Clip& clip, double scale, const Feet& feet, const Foot
   Feet scaled_feet = feet;
   for (Foot& foot : scaled_feet.sides) {
     for (double& height : foot.ground_heights) height *= scale;
+    foot.toe_ground_height *= scale;
   }
+  // joints[0]'s world rotation times the scale, which carries a toe offset (contacts.h) to where
+  // the scaled clip has it.
+  const auto toe_frame = [scale](const Foot& foot, const FramePose& pose) -> Eigen::Matrix3d {
+    return scale * pose.world[foot.joints[0]].rotation;
+  };
   for (int f = 0; f < frames; ++f) {
     now.pose(clip, f, scale, feet.levelling);
     for (int side = 0; side < 2; ++side) {
       const Foot& foot = scaled_feet[side];
-      const double clearance = foot_clearance(foot, now.position);
+      const Eigen::Matrix3d now_toe = toe_frame(foot, now);
+      const double clearance = foot_clearance(foot, now.position, now_toe);
       if (contacts.planted[side][f]) {
         depth_sum += std::max(0.0, -clearance);
         height_sum += std::max(0.0, clearance);
         ++contact_samples;
       }
       if (f > 0) {
-        const int lowest = lowest_foot_joint(foot, before.position);
-        const double clearance_before = before.position[foot.joints[lowest]].z() - foot.ground_heights[lowest];
-        const Eigen::Vector3d step = now.position[foot.joints[lowest]] - before.position[foot.joints[lowest]];
+        const Eigen::Matrix3d before_toe = toe_frame(foot, before);
+        const int lowest = lowest_foot_point(foot, before.position, before_toe);
+        const Eigen::Vector3d lowest_before = foot.point(lowest, before.position, before_toe);
+        const double clearance_before = lowest_before.z() - foot.point_ground_height(lowest);
+        const Eigen::Vector3d step = foot.point(lowest, now.position, now_toe) - lowest_before;
         const double speed = step.head<2>().norm() * clip.fps;
         const auto skates = [&](const MetricThresholds& t) {
           return clearance_before < t.contact_height && clearance < t.contact_height && speed > t.skate_speed;

@@ -25,7 +25,8 @@
 // by the scale-aware one, since fixed thresholds are small against its strides.
 // Penetration / floating, cm: over the (foot, frame) where the SOURCE foot is planted
 // (FootContacts), the mean of max(0, -clearance) and of max(0, clearance). The lowest foot point
-// is the lowest of the foot's joints (ankle, ball of the foot) relative to its ground height.
+// is the lowest of the foot's points (ankle, ball of the foot, or a one-joint foot's toe:
+// contacts.h) relative to its ground height; skate follows that point.
 // Jitter, m/s^2: the mean over frames 1..T-2 and paired joints of
 //   | p(t+1) - 2 p(t) + p(t-1) | fps^2.
 //

@@ -69,9 +69,12 @@
 //   contact the correction fades in and out over `contact_blend_seconds` (smoothstep u from 1 to
 //   0): the boundary's support joint is wanted at p_ref + u (dp_plan + o) + (1 - u) dp, passing
 //   from its anchor to moving with the body; contacts closer than two fades hand the correction
-//   from one to the next across the gap. A foot of one joint (no ball of the foot) cannot roll
-//   over its ball: it is held flat while planted (its rest rotation turned about z as the
-//   reference turns), or with the performer's toe-off pitch its toe would dip into the floor.
+//   from one to the next across the gap. A foot of one joint with a toe (contacts.h) rolls over
+//   its toe as a two-joint foot over its ball: the toe is one of its points, and since the solver
+//   keeps the foot's rotation (the reference's, pitched by the transfer so the toe stands where the
+//   performer's ball does: transfer.h), moving the joint by the toe's correction holds the toe.
+//   A foot of one joint without a toe (no mesh to find it on) is held flat while planted (its
+//   rest rotation turned about z as the reference turns).
 //
 // Solvers.
 // - balanced: frame by frame, one small problem per limb with ceres::TinySolver and automatic

@@ -280,25 +280,28 @@ RefineModel build_refine_model(const RetargetResult& result) {
 MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const FootContacts& contacts, int blend_frames,
                        bool fit_stride) {
   const int frames = contacts.frame_count();
-  // The pelvis and the foot joints in the reference pose: position[side][k][frame].
+  // The pelvis in the reference pose, and the foot's points (contacts.h: its joints, then a
+  // one-joint foot's toe): position[side][k][frame].
   std::vector<Eigen::Vector3d> pelvis(frames);
   std::array<std::vector<std::vector<Eigen::Vector3d>>, 2> position;
-  for (int side = 0; side < 2; ++side) position[side].assign(model.feet[side].joints.size(), std::vector<Eigen::Vector3d>(frames));
+  for (int side = 0; side < 2; ++side) position[side].assign(model.feet[side].point_count(), std::vector<Eigen::Vector3d>(frames));
   for (int f = 0; f < frames; ++f) {
     builder.load(f);
     pelvis[f] = builder.reference_position(model.pelvis);
     for (int side = 0; side < 2; ++side) {
-      for (std::size_t k = 0; k < model.feet[side].joints.size(); ++k) {
-        position[side][k][f] = builder.reference_position(model.feet[side].joints[k]);
+      const Foot& foot = model.feet[side];
+      for (std::size_t k = 0; k < foot.joints.size(); ++k) position[side][k][f] = builder.reference_position(foot.joints[k]);
+      if (foot.has_toe) {
+        position[side].back()[f] = builder.reference_position(foot.joints[0]) + builder.reference_rotation(foot.joints[0]) * foot.toe;
       }
     }
   }
   const auto support = [&](int side, int f) {
     const Foot& foot = model.feet[side];
     int lowest = 0;
-    for (std::size_t k = 1; k < foot.joints.size(); ++k) {
+    for (int k = 1; k < foot.point_count(); ++k) {
       const auto& at = position[side];
-      if (at[k][f].z() - foot.ground_heights[k] < at[lowest][f].z() - foot.ground_heights[lowest]) lowest = static_cast<int>(k);
+      if (at[k][f].z() - foot.point_ground_height(k) < at[lowest][f].z() - foot.point_ground_height(lowest)) lowest = k;
     }
     return lowest;
   };
@@ -335,7 +338,7 @@ MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const Fo
     for (int f = 0; f < frames; ++f) {
       if (!contacts.planted[side][f]) continue;
       const int k = support(side, f);
-      heights.push_back(model.feet[side].ground_heights[k] - position[side][k][f].z());
+      heights.push_back(model.feet[side].point_ground_height(k) - position[side][k][f].z());
     }
   }
   if (!heights.empty()) {
@@ -361,7 +364,7 @@ MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const Fo
     feet.joint.assign(frames, -1);
     feet.offset.assign(frames, Eigen::Vector3d::Zero());
     feet.follow.assign(frames, 1.0);
-    if (foot.joints.size() == 1) feet.flat.assign(frames, 0.0);
+    if (foot.joints.size() == 1 && !foot.has_toe) feet.flat.assign(frames, 0.0);
     std::vector<Eigen::Vector3d> correction(frames, Eigen::Vector3d::Zero());  // o(t) in contacts
 
     // Contacts: the support joint held at its anchor, on the floor.
@@ -388,8 +391,10 @@ MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const Fo
           anchor += (at[now][f] - at[k][f]).head<2>();
           k = now;
         }
-        correction[f] = Eigen::Vector3d(anchor.x(), anchor.y(), foot.ground_heights[k]) - at[k][f];
-        feet.joint[f] = static_cast<std::int8_t>(k);
+        correction[f] = Eigen::Vector3d(anchor.x(), anchor.y(), foot.point_ground_height(k)) - at[k][f];
+        // The toe is rigid with joints[0] in the reference's rotation, which the solver keeps: the
+        // joint moved by the toe's correction puts the toe on its anchor.
+        feet.joint[f] = static_cast<std::int8_t>(std::min<int>(k, static_cast<int>(foot.joints.size()) - 1));
         feet.offset[f] = plan.pelvis_offset[f] + correction[f];
         feet.follow[f] = 0;
         if (!feet.flat.empty()) feet.flat[f] = 1;
@@ -442,6 +447,7 @@ FrameBuilder::FrameBuilder(const RefineModel& model, const Clip& reference, cons
   new_rotation_.resize(n);
   new_position_.resize(n);
   reference_placed_.resize(n);
+  reference_rotated_.resize(n);
   flattened_.assign(n, 0);
   source_track_of_.assign(source.joint_count(), -1);
   for (std::size_t t = 0; t < source.translated_joints.size(); ++t) source_track_of_[source.translated_joints[t]] = static_cast<int>(t);
@@ -475,6 +481,7 @@ void FrameBuilder::load(int frame) {
   reference_pose(reference_pose_);
   place(reference_pose_, nullptr);
   reference_placed_ = new_position_;
+  reference_rotated_ = new_rotation_;
 }
 
 void FrameBuilder::reference_pose(FramePose& pose) const {

@@ -111,15 +111,16 @@ RefineModel build_refine_model(const RetargetResult& result);
 // follow = 0 and D is the anchor; fading out, u(t) going from 1 to 0, offset = u (dp_plan + o)
 // and follow = 1 - u, so the foot passes from its anchor to moving with the body.
 //
-// A foot of one joint (no ball of the foot) cannot roll over its ball: held on the floor through
-// the source's toe-off, with the source's pitch it would push its toe into the floor. While
-// planted it is held flat, its rotation the rest's turned about z as the reference turns
-// (heading_of), slerped from the reference's with weight flat(t) = u(t) in the fades.
+// A foot's points are its joints and a one-joint foot's toe (contacts.h); `joint` names the joint
+// placed, the toe's correction moving joints[0] (rigid with it in the reference's rotation, which
+// the solver keeps). A foot of one joint without a toe is held flat while planted, its rotation
+// the rest's turned about z as the reference turns (heading_of), slerped from the reference's
+// with weight flat(t) = u(t) in the fades.
 struct FootPlan {
   std::vector<std::int8_t> joint;
   std::vector<Eigen::Vector3d> offset;
   std::vector<double> follow;
-  std::vector<double> flat;  // empty for feet of two joints
+  std::vector<double> flat;  // empty for feet of two joints or with a toe
 };
 
 // What refine() plans before solving: the stride factor k and the height h, the pelvis
@@ -176,6 +177,7 @@ class FrameBuilder {
   // Where a joint is in the loaded frame's reference pose, placed as above (an IK foot at the
   // end of its shin, not where the transfer put it).
   const Eigen::Vector3d& reference_position(int joint) const { return reference_placed_[joint]; }
+  const Eigen::Quaterniond& reference_rotation(int joint) const { return reference_rotated_[joint]; }
   // Writes the loaded frame of `out` (a clip laid out as the reference) from a solved pose: every
   // joint placed as above, single-joint feet held flat as the plan says, locals recomputed where
   // a joint's parent or anchor moved.
@@ -195,6 +197,7 @@ class FrameBuilder {
   std::vector<Eigen::Quaterniond> source_rotation_;
   FramePose reference_pose_;
   std::vector<Eigen::Vector3d> reference_placed_;
+  std::vector<Eigen::Quaterniond> reference_rotated_;
   std::vector<Eigen::Quaterniond> new_rotation_;  // place()'s output
   std::vector<Eigen::Vector3d> new_position_;
   std::vector<std::uint8_t> flattened_;            // place() held the joint flat

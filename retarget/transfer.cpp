@@ -31,6 +31,18 @@ Eigen::Matrix3d rotation_factor(const Eigen::Matrix3d& b, const Eigen::Quaternio
   return x;
 }
 
+// `world` turned about its horizontal lateral axis so that its toe offset `toe` (in its frame)
+// rises `wanted` above the joint (transfer.h).
+Eigen::Quaterniond pitched_toe(const Eigen::Quaterniond& world, const Eigen::Vector3d& toe, double wanted) {
+  const Eigen::Vector3d offset = world * toe;
+  const double ahead = offset.head<2>().norm();
+  if (!(ahead > 1e-9 * offset.norm())) return world;  // a toe straight below the joint: no pitch axis
+  const double phi = std::atan2(offset.z(), ahead);
+  const double theta = phi - std::asin(std::clamp(wanted / offset.norm(), -1.0, 1.0));
+  const Eigen::Vector3d axis(-offset.y() / ahead, offset.x() / ahead, 0.0);  // z x f
+  return (Eigen::AngleAxisd(theta, axis) * world).normalized();
+}
+
 }  // namespace
 
 FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : rig_(rig), target_feet_(target_feet) {
@@ -100,6 +112,10 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
     rule.rotation = JointRule::Rotation::follower;
     rule.anchor_to_joint = rest_rotation[anchor].conjugate() * rest_rotation[follower.joint];
     attach(rule, follower.joint, anchor);
+  }
+  for (int side = 0; side < 2; ++side) {
+    const Foot& foot = target_feet_[side];
+    if (foot.has_toe && rules_[foot.joints[0]].rotation == JointRule::Rotation::driven) rules_[foot.joints[0]].toe_side = side;
   }
   int root = target_pelvis;
   while (target.parent(root) >= 0) root = target.parent(root);
@@ -253,6 +269,13 @@ TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, co
           world[j] = world[rule.anchor] * rule.anchor_to_joint;
           break;
       }
+      if (rule.toe_side >= 0 && source_feet[rule.toe_side].joints.size() == 2) {
+        const Foot& source_foot = source_feet[rule.toe_side];
+        const Foot& foot = target_feet_[rule.toe_side];
+        const double ball_above_ankle = (source_position[source_foot.joints[1]].z() - source_foot.ground_heights[1]) -
+                                        (source_position[source_foot.joints[0]].z() - source_foot.ground_heights[0]);
+        world[j] = pitched_toe(world[j], foot.toe, foot.toe_ground_height - foot.ground_heights[0] + s * ball_above_ankle);
+      }
       switch (rule.placement) {
         case JointRule::Placement::offset:
           position[j] = p < 0 ? rule.offset : Eigen::Vector3d(position[p] + world[p] * rule.offset);
@@ -291,7 +314,9 @@ TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, co
     }
 
     for (int side = 0; side < 2; ++side) {
-      const double gap = s * foot_clearance(source_feet[side], source_position) - foot_clearance(target_feet_[side], position);
+      const Foot& target_foot = target_feet_[side];
+      const double gap = s * foot_clearance(source_feet[side], source_position) -
+                         foot_clearance(target_foot, position, world[target_foot.joints[0]].toRotationMatrix());
       all_sum += gap;
       ++all_samples;
       if (contacts.planted[side][f]) {

@@ -68,6 +68,18 @@
 //   the shin above it still follows the source shin's direction (the detached segment's rest
 //   direction is the shin's, rig.h). The foot's height follows the source ankle, so on a rig
 //   without a ball-of-the-foot joint the foot joint rises with the source heel at toe-off.
+// - One-joint feet with a toe (contacts.h: RobotExpressive's, a block 2.6 times as long, heel to
+//   toe, as the scaled performer's ankle to ball) take their pitch from positions, not from the
+//   source's rotation: copied, the performer's toe-off pitch (up to 55 degrees) drives the long
+//   toe through the floor and drags it along while the foot swings. The rotation above is turned
+//   about its horizontal lateral axis through the joint so that the toe stands above the foot
+//   joint as the source's ball of the foot stands above its ankle, in clearances (contacts.h)
+//   scaled by s:
+//     z(toe) - z(joint) = (g_toe - g_joint) + s ((z_ball - g_ball) - (z_ankle - g_ankle))_S.
+//   With the toe's offset o = W(t) toe = L f + v z (f horizontal, unit), a turn by theta about
+//   z x f gives o.z = v cos theta - L sin theta = rho sin(phi - theta), rho = |o|,
+//   phi = atan2(v, L): theta = phi - asin(wanted / rho). Heading and roll stay the source's; a
+//   source foot without a ball of the foot leaves the rotation as it is.
 // - A detached joint that hangs inside the body (a thumb parented to the forearm instead of the
 //   palm), and followers (bone_map.h), ride rigidly on their canonical parent's target joint A:
 //     P(t) = P(A, t) + W(A, t) W^rest(A)^-1 (P_T^rest(joint) - P_T^rest(A)).
@@ -121,6 +133,7 @@ class FastTransfer {
     int source_joint = -1;  // effector: S(c)
     Eigen::Vector3d rest_discrepancy = Eigen::Vector3d::Zero();  // effector: d
     Eigen::Vector3d root_to_pelvis = Eigen::Vector3d::Zero();    // root: W^rest(root)^-1 (P^rest(pelvis) - P^rest(root))
+    int toe_side = -1;  // a one-joint target foot with a toe (contacts.h): its side
   };
 
   struct BranchChord {
