@@ -68,7 +68,7 @@
 //   the shin above it still follows the source shin's direction (the detached segment's rest
 //   direction is the shin's, rig.h). The foot's height follows the source ankle, so on a rig
 //   without a ball-of-the-foot joint the foot joint rises with the source heel at toe-off.
-// - One-joint feet with a toe (contacts.h: RobotExpressive's, a block 2.6 times as long, heel to
+// - One-joint feet with a toe (contacts.h: RobotExpressive's, a block 2.9 times as long, heel to
 //   toe, as the scaled performer's ankle to ball) take their pitch from positions, not from the
 //   source's rotation: copied, the performer's toe-off pitch (up to 55 degrees) drives the long
 //   toe through the floor and drags it along while the foot swings. The rotation above is turned
