@@ -1,0 +1,256 @@
+// Retargeting quality as Blender sees the exported GLB (issue 10, item 2). Every shared humanoid
+// (RiggedFigure, CesiumMan, the Rigify base mesh, the KayKit mannequin, RobotExpressive) is driven
+// by both shared CMU clips at 30 fps at fast, balanced and accurate, through `odyssey retarget` as
+// a user runs it. Debian's blender imports each GLB with its own glTF importer and plays it
+// (tests/blender/measure_retarget.py). The metrics are computed there from the definitions in
+// ARCHITECTURE.md, by code that shares nothing with odyssey's, against the performer's world
+// joints from `odyssey pose`.
+//
+// The source is levelled by the report's rotation (source.levelling, contacts.h: the CMU walk's
+// floor rises 0.9 degrees and the retargeting turns it level). Unlevelled, every bone of the walk
+// carries that tilt (limbs_raw).
+//
+// Two kinds of check:
+//   agreement  Blender's per-bone mean direction errors equal the report's per-bone figures
+//              within 0.05 degrees, and its jitter the report's within 1%: the file carries what
+//              odyssey measured. Detached segments (below) are left out.
+//   targets    the issue's, per limb (thigh, shin, upper arm, forearm, spine, chest to neck,
+//              neck): a mean direction error under 2 degrees on the walk and 3 on the jump, at
+//              every quality. At balanced and accurate also: a skate ratio no worse than the
+//              source's by more than 0.01 (GMD heights from the clip's lowest foot joint,
+//              thresholds scaled by the character's size), and jitter at most 1.3 (balanced) or
+//              1.1 (accurate) times the source's.
+// Where today's retargeting misses a target, tests/retarget_blender_misses.inc lists it with what
+// was measured. A listed row may not get worse by more than its slack. A listed row that meets its
+// target fails the test until it is taken off the list, so the list stays true. With
+// ODYSSEY_PRINT_MISSES=1 the test prints the list as measured.
+//
+// Detached segments: RobotExpressive's foot joints are not the knees' children. The report
+// measures such a shin along the knee bone's own direction (metrics.h). Blender sees the line
+// from the knee to wherever the foot joint is, which is what a viewer sees and what the targets
+// judge.
+// Penetration and floating need the sole (the mesh), which this check does not read. The
+// library's figures for them are in the report and the README's table.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "cli_runner.h"
+#include "test_support.h"
+
+namespace odyssey {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kAssets = fs::path(ODYSSEY_SHARED_DIR) / "assets";
+
+std::string quoted(const fs::path& path) { return "'" + path.string() + "'"; }
+
+struct Character {
+  const char* name;
+  const char* file;
+};
+const Character kCharacters[] = {{"RiggedFigure", "RiggedFigure.glb"},
+                                 {"CesiumMan", "CesiumMan.glb"},
+                                 {"Rigify", "male_base_mesh.glb"},
+                                 {"KayKit", "kaykit_mannequin/manny_med_mod.gltf"},
+                                 {"RobotExpressive", "RobotExpressive.glb"}};
+const char* const kClips[] = {"walk", "jump"};
+const char* const kQualities[] = {"fast", "balanced", "accurate"};
+
+// Limbs as the targets name them: canonical bones (parent joint -> child joint).
+const std::map<std::string, std::vector<std::pair<const char*, const char*>>> kLimbs = {
+    {"left_thigh", {{"left_hip", "left_knee"}}},          {"right_thigh", {{"right_hip", "right_knee"}}},
+    {"left_shin", {{"left_knee", "left_ankle"}}},         {"right_shin", {{"right_knee", "right_ankle"}}},
+    {"left_upper_arm", {{"left_shoulder", "left_elbow"}}}, {"right_upper_arm", {{"right_shoulder", "right_elbow"}}},
+    {"left_forearm", {{"left_elbow", "left_wrist"}}},     {"right_forearm", {{"right_elbow", "right_wrist"}}},
+    {"spine", {{"spine1", "spine3"}}},                    {"chest_to_neck", {{"spine3", "neck"}}},
+    {"neck", {{"neck", "head"}}}};
+
+// A target today's retargeting misses: what was measured (Blender, 2026-12-02) and how much worse
+// it may get before the test fails.
+struct KnownMiss {
+  const char* character;
+  const char* clip;
+  const char* quality;
+  const char* metric;  // a limb name, "skate" (minus the source's) or "jitter" (over the source's)
+  double measured, slack;
+};
+const KnownMiss kKnownMisses[] = {
+#include "retarget_blender_misses.inc"
+};
+
+struct RetargetRun {
+  std::string character, clip, quality;
+  fs::path glb, report;
+};
+
+class RetargetBlenderTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    if (std::system("blender --version > /dev/null 2>&1") != 0) return;
+    dir_ = new fs::path(test_support::scratch_root() / "retarget_blender");
+    fs::create_directories(*dir_);
+    runs_ = new std::vector<RetargetRun>;
+    results_ = new nlohmann::json;
+    nlohmann::json jobs = nlohmann::json::array();
+    for (const char* clip : kClips) {
+      const fs::path bvh = kAssets / "mocap" / ("cmu_" + std::string(clip) + "_cgspeed.bvh");
+      const fs::path source = *dir_ / (std::string(clip) + "_source.npz");
+      const auto pose = test_support::run_cli("pose --motion " + quoted(bvh) + " --bvh-units cmu --fps 30 --out " + quoted(source));
+      ASSERT_EQ(pose.exit_code, 0) << pose.output;
+      for (const Character& character : kCharacters) {
+        for (const char* quality : kQualities) {
+          RetargetRun run{character.name, clip, quality, {}, {}};
+          const std::string stem = run.character + "_" + clip + "_" + quality;
+          run.glb = *dir_ / (stem + ".glb");
+          run.report = *dir_ / (stem + ".json");
+          const auto result = test_support::run_cli("retarget --motion " + quoted(bvh) + " --character " +
+                                                    quoted(kAssets / "characters" / character.file) + " --quality " + quality +
+                                                    " --fps 30 --out " + quoted(run.glb) + " --report " + quoted(run.report));
+          ASSERT_EQ(result.exit_code, 0) << stem << "\n" << result.output;
+          const nlohmann::json report = nlohmann::json::parse(std::ifstream(run.report));
+          nlohmann::json limbs = nlohmann::json::object();
+          for (const auto& [limb, bones] : kLimbs) {
+            for (const auto& [parent, child] : bones) limbs[limb].push_back(nlohmann::json::array({parent, child}));
+          }
+          // One "limb" per bone the report measures, for the agreement check.
+          for (const auto& [bone, value] : report["metrics"]["result"]["bone_direction_deg_per_bone"].items()) {
+            const std::size_t arrow = bone.find("->");
+            limbs["bone " + bone].push_back(nlohmann::json::array({bone.substr(0, arrow), bone.substr(arrow + 2)}));
+          }
+          jobs.push_back({{"glb", run.glb.string()},
+                          {"source_npz", source.string()},
+                          {"fps", 30},
+                          {"scale", report["scale"]},
+                          {"levelling_wxyz", report["source"]["levelling"]["quaternion_wxyz"]},
+                          {"map", report["map"]},
+                          {"limbs", limbs},
+                          {"feet", {"left_ankle", "left_foot", "right_ankle", "right_foot"}}});
+          runs_->push_back(run);
+        }
+      }
+    }
+    std::ofstream(*dir_ / "jobs.json") << jobs.dump();
+    const fs::path script = fs::path(__FILE__).parent_path() / "blender" / "measure_retarget.py";
+    const int status = std::system(("blender -b --factory-startup --python " + quoted(script) + " -- --jobs " +
+                                    quoted(*dir_ / "jobs.json") + " --out " + quoted(*dir_ / "blender.json") + " > " +
+                                    quoted(*dir_ / "blender.log") + " 2>&1").c_str());
+    ASSERT_EQ(status, 0) << std::ifstream(*dir_ / "blender.log").rdbuf();
+    *results_ = nlohmann::json::parse(std::ifstream(*dir_ / "blender.json"));
+    ASSERT_EQ(results_->size(), runs_->size());
+  }
+
+  void SetUp() override {
+    if (!runs_) GTEST_SKIP() << "blender is not installed";
+  }
+
+  static fs::path* dir_;
+  static std::vector<RetargetRun>* runs_;
+  static nlohmann::json* results_;
+};
+fs::path* RetargetBlenderTest::dir_ = nullptr;
+std::vector<RetargetRun>* RetargetBlenderTest::runs_ = nullptr;
+nlohmann::json* RetargetBlenderTest::results_ = nullptr;
+
+TEST_F(RetargetBlenderTest, TheFileCarriesWhatTheReportMeasured) {
+  for (std::size_t i = 0; i < runs_->size(); ++i) {
+    const RetargetRun& run = (*runs_)[i];
+    const nlohmann::json& blender = (*results_)[i];
+    ASSERT_FALSE(blender.contains("error")) << blender["error"].get<std::string>();
+    const nlohmann::json report = nlohmann::json::parse(std::ifstream(run.report));
+    const std::string label = run.character + " " + run.clip + " " + run.quality;
+    // A detached segment (a foot joint that is not the knee's child, as RobotExpressive's) is
+    // measured by the report along the knee bone's own direction (metrics.h), where Blender sees
+    // the line from the knee to wherever the foot joint is: those differ by design, and the
+    // targets judge the latter.
+    std::set<std::string> detached;
+    for (const nlohmann::json& segment : report["segments"]) {
+      if (!segment["target_attached"].get<bool>()) detached.insert(segment["bone"].get<std::string>());
+    }
+    int bones = 0;
+    for (const auto& [bone, value] : report["metrics"]["result"]["bone_direction_deg_per_bone"].items()) {
+      const std::string key = "bone " + bone;
+      if (!blender["limbs"].contains(key) || detached.count(bone)) continue;  // or a joint the source npz lacks
+      EXPECT_NEAR(blender["limbs"][key].get<double>(), value["mean"].get<double>(), 0.05) << label << ": " << bone;
+      ++bones;
+    }
+    EXPECT_GE(bones, 10) << label;
+    const double jitter = report["metrics"]["result"]["jitter_m_per_s2"].get<double>();
+    EXPECT_NEAR(blender["jitter"].get<double>(), jitter, 0.01 * jitter) << label;
+  }
+}
+
+TEST_F(RetargetBlenderTest, TargetsHoldOrAreKnownMisses) {
+  std::map<std::string, const KnownMiss*> misses;
+  for (const KnownMiss& miss : kKnownMisses) {
+    misses[std::string(miss.character) + " " + miss.clip + " " + miss.quality + " " + miss.metric] = &miss;
+  }
+  std::string table = "character clip quality: worst limb (deg), skate - source's, jitter / source's\n";
+  std::string misses_measured;
+  int checked = 0;
+  for (std::size_t i = 0; i < runs_->size(); ++i) {
+    const RetargetRun& run = (*runs_)[i];
+    const nlohmann::json& blender = (*results_)[i];
+    ASSERT_FALSE(blender.contains("error")) << blender["error"].get<std::string>();
+    const std::string label = run.character + " " + run.clip + " " + run.quality;
+    const auto check = [&](const std::string& metric, double value, double limit) {
+      ++checked;
+      if (value > limit) {
+        // Slack: what the solvers' tolerances and a changed default may move it by.
+        const double slack = metric == "skate" ? 0.02 : metric == "jitter" ? 0.1 : 0.25;
+        char row[200];
+        std::snprintf(row, sizeof row, "{\"%s\", \"%s\", \"%s\", \"%s\", %.3f, %.2f},\n", run.character.c_str(),
+                      run.clip.c_str(), run.quality.c_str(), metric.c_str(), value, slack);
+        misses_measured += row;
+      }
+      const auto found = misses.find(label + " " + metric);
+      if (found == misses.end()) {
+        EXPECT_LE(value, limit) << label << ": " << metric << " misses its target " << limit;
+        return;
+      }
+      const KnownMiss& miss = *found->second;
+      EXPECT_GT(value, limit) << label << ": " << metric << " = " << value << " now meets its target " << limit
+                              << ": remove it from tests/retarget_blender_misses.inc";
+      EXPECT_LE(value, miss.measured + miss.slack) << label << ": " << metric << " got worse than the known miss " << miss.measured;
+      misses.erase(found);
+    };
+    const double limb_limit = run.clip == std::string("walk") ? 2.0 : 3.0;
+    double worst = 0;
+    for (const auto& [limb, bones] : kLimbs) {
+      if (!blender["limbs"].contains(limb)) continue;
+      const double value = blender["limbs"][limb].get<double>();
+      worst = std::max(worst, value);
+      check(limb, value, limb_limit);
+    }
+    const double skate = blender["skate_scaled"].get<double>() - blender["source_skate"].get<double>();
+    const double jitter = blender["jitter"].get<double>() / blender["source_jitter"].get<double>();
+    if (run.quality != std::string("fast")) {
+      check("skate", skate, 0.01);
+      check("jitter", jitter, run.quality == std::string("balanced") ? 1.3 : 1.1);
+    }
+    char line[200];
+    std::snprintf(line, sizeof line, "%s: %.2f, %+.3f, %.2f\n", label.c_str(), worst, skate, jitter);
+    table += line;
+  }
+  std::printf("%s", table.c_str());
+  if (const char* print = std::getenv("ODYSSEY_PRINT_MISSES"); print && std::string(print) == "1") {
+    std::printf("\n// tests/retarget_blender_misses.inc, as measured:\n%s", misses_measured.c_str());
+  }
+  EXPECT_GE(checked, 30 * 10);
+  for (const auto& [key, miss] : misses) ADD_FAILURE() << "known miss never measured: " << key;
+}
+
+}  // namespace
+}  // namespace odyssey
