@@ -318,6 +318,37 @@ TEST(BatchIsolation, ACrashAHangAndAMemoryBlowUpFailTheirJobsOnly) {
   EXPECT_TRUE(leftovers(out).empty());
 }
 
+TEST(BatchIsolation, ASecondBatchIntoTheSameFolderIsRefusedWhileTheFirstRuns) {
+  const fs::path dir = scratch();
+  const Inputs inputs = make_inputs(dir);
+  const fs::path out = dir / "out";
+  // The first batch holds the journal's lock for at least --timeout: one of its jobs hangs.
+  const std::string first = "ODYSSEY_BATCH_FAULT=hang:CesiumMan/jump " + std::string(ODYSSEY_CLI) + " " +
+                            batch_arguments(inputs, out, "--jobs 1 --timeout 6") + " > " + quoted(dir / "first.txt") + " 2>&1";
+  const char* argv[] = {"/bin/sh", "-c", first.c_str(), nullptr};
+  pid_t pid = 0;
+  ASSERT_EQ(::posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  // The first job of the name-sorted list is the hanging one. The journal's header is written
+  // after its lock is taken, so a journal with a header means the lock is held.
+  const auto locked = [&] {
+    std::error_code error;
+    return fs::file_size(out / "journal.jsonl", error) > 0 && !error;
+  };
+  for (int wait = 0; wait < 100 && !locked(); ++wait) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  const auto second = run_cli(batch_arguments(inputs, out, "--jobs 1"));
+  EXPECT_EQ(second.exit_code, 1) << second.output;
+  EXPECT_TRUE(contains(second.output, "journal.jsonl: another batch (or the same shard) is running into this folder"))
+      << second.output;
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << read(dir / "first.txt");  // the hung job failed
+  const nlohmann::json jobs = report_jobs(out / "report.json");
+  EXPECT_EQ(jobs["CesiumMan/jump"]["error"], "timed out after 6 s (--timeout)");
+  EXPECT_EQ(jobs["RiggedFigure/walk_b"]["status"], "done");
+}
+
 // One uninterrupted run, into `out`.
 void reference_run(const Inputs& inputs, const fs::path& out) {
   const auto result = run_cli(batch_arguments(inputs, out, "--jobs 2"));
