@@ -13,11 +13,8 @@
 //             reloads the body model and the character every time: what the batch saves.
 //
 // Arguments: the clip count (default 300). ODYSSEY_BENCH_KEEP=1 keeps the inputs and outputs.
-#include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -29,6 +26,7 @@
 #include <vector>
 
 #include "bench/machine.h"
+#include "bench/timed_process.h"
 #include "mocap_io/amass.h"
 #include "mocap_io/body_model_writer.h"
 #include "skeleton/body_sequence.h"
@@ -37,32 +35,11 @@
 namespace {
 
 namespace fs = std::filesystem;
+using odyssey::bench::run_timed;
 
 const std::string kShared = ODYSSEY_SHARED_DIR;
 const char* const kCharacters[] = {"RiggedFigure.glb", "CesiumMan.glb", "RobotExpressive.glb"};
 constexpr double kAmassFrames = 4.3e6;
-
-struct Run {
-  double seconds = 0, peak_mib = 0;
-  int exit_code = -1;
-};
-
-Run run(const std::string& command) {
-  const auto start = std::chrono::steady_clock::now();
-  const pid_t child = fork();
-  if (child == 0) {
-    execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  int status = 0;
-  rusage usage{};
-  Run result;
-  if (wait4(child, &status, 0, &usage) != child) return result;
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  result.peak_mib = usage.ru_maxrss / 1024.0;  // the largest of the process and its waited-for children
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
 
 // `count` walks named clip_NNN.npz into `folder`, lengths from `seconds` (seeded).
 void write_clips(const fs::path& folder, int count, std::uniform_real_distribution<double> seconds, unsigned seed) {
@@ -100,7 +77,7 @@ int main(int argc, char** argv) {
   std::printf("| run | jobs | frames | workers | wall s | frames/s | per job | peak memory (MiB) |\n"
               "|---|---:|---:|---:|---:|---:|---:|---:|\n");
   const auto batch = [&](const char* what, const fs::path& motions, const std::string& out, unsigned workers, long jobs) {
-    const Run result = run(std::string(ODYSSEY_CLI) + " batch --motions " + motions.string() + " --characters" + characters +
+    const auto result = run_timed(std::string(ODYSSEY_CLI) + " batch --motions " + motions.string() + " --characters" + characters +
                            " --out " + (dir / out).string() + settings + " --jobs " + std::to_string(workers) + " > " +
                            (dir / (out + ".log")).string() + " 2>&1");
     if (result.exit_code != 0) {
@@ -122,7 +99,7 @@ int main(int argc, char** argv) {
   std::string loop = "set -e; for c in" + characters + "; do for m in " + (dir / "short").string() + "/*.npz; do " + ODYSSEY_CLI +
                      " retarget --motion \"$m\" --character \"$c\" --model " + model.string() +
                      " --quality balanced --fps 30 --out " + (dir / "loop.glb").string() + " > /dev/null; done; done";
-  const Run looped = run(loop + " > " + (dir / "loop.log").string() + " 2>&1");
+  const auto looped = run_timed(loop + " > " + (dir / "loop.log").string() + " 2>&1");
   if (looped.exit_code != 0) {
     std::printf("| loop | failed: see %s |\n", (dir / "loop.log").c_str());
     return 1;

@@ -6,11 +6,8 @@
 // clock, with the child's peak resident set from wait4; rows at two lengths show whether memory
 // stays flat as the clip grows. Prints a table. Arguments: the frame counts (default 500 2000);
 // ODYSSEY_BENCH_KEEP=1 keeps the scene files, logs and outputs.
-#include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -20,10 +17,12 @@
 #include <vector>
 
 #include "bench/machine.h"
+#include "bench/timed_process.h"
 
 namespace {
 
 namespace fs = std::filesystem;
+using odyssey::bench::run_timed;
 
 const std::string kShared = ODYSSEY_SHARED_DIR;
 
@@ -55,28 +54,6 @@ std::string scene_json(int frames) {
          "  \"outputs\": {\"trajectories\": true, \"camera_paths\": true, \"report\": true, \"prop_points\": 4000, \"threads\": 2}\n}\n";
 }
 
-struct Run {
-  double seconds = 0, peak_mib = 0;
-  bool ok = false;
-};
-
-Run run(const std::string& command) {
-  const auto start = std::chrono::steady_clock::now();
-  const pid_t child = fork();
-  if (child == 0) {
-    execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  int status = 0;
-  rusage usage{};
-  Run result;
-  if (wait4(child, &status, 0, &usage) != child) return result;
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  result.peak_mib = usage.ru_maxrss / 1024.0;
-  result.ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
-  return result;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -92,10 +69,10 @@ int main(int argc, char** argv) {
   for (const int frames : lengths) {
     const fs::path file = dir / ("shot_" + std::to_string(frames) + ".json");
     std::ofstream(file) << scene_json(frames);
-    const Run result = run(std::string(ODYSSEY_CLI) + " scene " + file.string() + " --out " +
+    const auto result = run_timed(std::string(ODYSSEY_CLI) + " scene " + file.string() + " --out " +
                            (dir / ("out_" + std::to_string(frames))).string() + " --quiet > " +
                            (dir / ("log_" + std::to_string(frames) + ".txt")).string() + " 2>&1");
-    if (!result.ok) {
+    if (result.exit_code != 0) {
       std::printf("| 4 actors, 5 props | %d | failed: see %s |\n", frames, (dir / ("log_" + std::to_string(frames) + ".txt")).c_str());
       continue;
     }
