@@ -191,10 +191,11 @@ TEST(BatchCli, CrossProductWritesTheLayoutTheReportAndValidGlbs) {
     EXPECT_EQ(job["status"], "done");
     EXPECT_EQ(job["frames"], 60) << job["name"];  // 240 frames at 120 fps, resampled to 30
     const nlohmann::json& metrics = job["metrics"];
-    // The humanoids follow the CMU performer closely at fast (README: quality ladder).
-    EXPECT_LT(metrics["worst_limb_mean_deg"].get<double>(), 5.0) << job["name"];
-    EXPECT_GE(metrics["skate"].get<double>(), 0.0);
+    // Fast swings every chain bone onto the source's (README: Retargeting: speed and accuracy).
+    EXPECT_LT(metrics["worst_limb_mean_deg"].get<double>(), 0.01) << job["name"];
+    // The report carries the source's figures beside the result's, measured on the same cut.
     EXPECT_GT(metrics["source_jitter"].get<double>(), 0.0);
+    EXPECT_GT(metrics["jitter"].get<double>(), 0.0);
     for (const char* limb : {"head", "spine", "left_arm", "right_arm", "left_leg", "right_leg"}) {
       EXPECT_TRUE(metrics["limbs_mean_deg"].contains(limb)) << limb << ": " << metrics.dump();
     }
