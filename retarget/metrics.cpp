@@ -144,17 +144,13 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
                  thresholds, metrics);
 
   // Direction and end-effector errors, frame by frame.
-  const std::vector<RigidTransform<double>> target_rest = rig.target.rest_world();
   struct Bone {
     const Segment* segment;
-    Eigen::Vector3d rest_chord_in_start;  // W^rest(T(a))^-1 (P^rest(T(c)) - P^rest(T(a))), detached bones
     Accumulator error;
   };
   std::vector<Bone> bones;
   for (const Segment& segment : rig.segments) {
-    if (segment.degenerate) continue;
-    const RigidTransform<double>& start = target_rest[segment.target_start];
-    bones.push_back({&segment, start.rotation.transpose() * (target_rest[segment.target_end].translation - start.translation), {}});
+    if (!segment.degenerate) bones.push_back({&segment, {}});
   }
   std::vector<int> effectors;
   for (int c : {canonical::head, canonical::left_wrist, canonical::right_wrist, canonical::left_ankle, canonical::right_ankle}) {
@@ -170,9 +166,7 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
     for (Bone& bone : bones) {
       const Segment& segment = *bone.segment;
       const Eigen::Vector3d source_direction = source_pose.position[segment.source_end] - source_pose.position[segment.source_start];
-      const Eigen::Vector3d target_direction =
-          segment.target_attached ? Eigen::Vector3d(target_pose.position[segment.target_end] - target_pose.position[segment.target_start])
-                                  : Eigen::Vector3d(target_pose.world[segment.target_start].rotation * bone.rest_chord_in_start);
+      const Eigen::Vector3d target_direction = target_pose.position[segment.target_end] - target_pose.position[segment.target_start];
       bone.error.add(angle_deg(source_direction, target_direction));
     }
     for (int c : effectors) {
@@ -188,11 +182,12 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
   std::vector<std::pair<std::string, Accumulator>> limbs;
   for (const Bone& bone : bones) {
     const Segment& segment = *bone.segment;
-    Accumulator& total = segment.branch ? branch : chain;
+    const bool build = segment.branch && !segment.spine_continuation;
+    Accumulator& total = build ? branch : chain;
     total.sum += bone.error.sum;
     total.samples += bone.error.samples;
     total.max = std::max(total.max, bone.error.max);
-    if (segment.branch) continue;
+    if (build) continue;
     metrics.bones.push_back({std::string(canonical_name(segment.canonical_start)) + "->" +
                                  std::string(canonical_name(segment.canonical_end)),
                              bone.error.direction()});

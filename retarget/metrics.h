@@ -3,14 +3,14 @@
 // is the source clip with every length multiplied by the rig's scale s.
 //
 // Bone direction error, degrees: per chain bone (rig.h: a non-degenerate segment whose start
-// joint starts no other) and frame, the angle between the source direction
-// p_S(S(c)) - p_S(S(a)) and the target direction p_T(T(c)) - p_T(T(a)); for a detached target
-// segment, the direction of a's bone: W_T(T(a), t) W_T^rest(T(a))^-1 (P_T^rest(T(c)) - P_T^rest(T(a))).
+// joint starts no other) or spine continuation (rig.h: chest -> neck) and frame, the angle between
+// the source direction p_S(S(c)) - p_S(S(a)) and the target direction p_T(T(c)) - p_T(T(a)), the
+// line a viewer sees, a detached segment's (a foot joint that is not the knee's child) included.
 // Mean and max over every (bone, frame), per limb (canonical_limb of the bone's end), and per
-// bone. A branch joint (the pelvis with its hips and spine, the chest with its neck and clavicles,
-// a wrist with its fingers) has no single bone direction: the angles between its child segments
-// are the rig's build (hip width, shoulder slope), which no rotation can change. Those segments
-// are reported apart, as `branch_direction`, with the same definition.
+// bone. The other segments of a branch joint (the pelvis with its hips and spine, the chest's
+// clavicles or shoulders, a wrist's fingers) have no single bone direction: the angles between
+// them are the rig's build (hip width, shoulder slope), which no rotation can change. They are
+// reported apart, as `branch_direction`, with the same definition.
 // End-effector error, m: per frame and paired head, wrist and ankle e,
 //   | (p_T(e) - p_T(pelvis)) - s (p_S(e) - p_S(pelvis)) |,   mean and max.
 // Foot skate ratio: over every foot and every pair of consecutive frames (t, t+1), the share where

@@ -160,7 +160,7 @@ RefineModel build_refine_model(const RetargetResult& result) {
   std::vector<FootTerm> feet;
   std::vector<PendingTerm> pending;
   for (const Segment& segment : rig.segments) {
-    if (segment.degenerate || segment.branch) continue;
+    if (segment.degenerate || (segment.branch && !segment.spine_continuation)) continue;
     DirectionTerm term;
     term.source_from = segment.source_start;
     term.source_to = segment.source_end;

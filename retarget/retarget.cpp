@@ -93,7 +93,7 @@ RetargetResult retarget_fast(const Clip& source, const BoneMap& source_map, cons
   for (int j : unmapped_joints(rig.target, target_map)) report.unmapped_target.push_back(rig.target.name(j));
   for (const Segment& segment : rig.segments) {
     report.segments.push_back({std::string(canonical_name(segment.canonical_start)) + "->" + std::string(canonical_name(segment.canonical_end)),
-                               segment.degenerate ? "degenerate" : (segment.branch ? "branch" : "chain"), segment.target_attached,
+                               segment.degenerate ? "degenerate" : (segment.spine_continuation ? "spine_continuation" : (segment.branch ? "branch" : "chain")), segment.target_attached,
                                segment.aligned_error_deg});
   }
   report.alignment = rig.alignment;

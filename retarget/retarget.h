@@ -38,7 +38,7 @@ struct RetargetReport {
   };
   struct SegmentInfo {
     std::string bone;     // "left_hip->left_knee"
-    std::string kind;     // "chain", "branch" or "degenerate"
+    std::string kind;     // "chain", "spine_continuation", "branch" or "degenerate" (rig.h)
     bool target_attached;
     double aligned_error_deg;
   };

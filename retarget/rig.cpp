@@ -196,7 +196,19 @@ RetargetRig build_retarget_rig(const Clip& source, const BoneMap& source_map, co
   for (const Segment& segment : rig.segments) {
     if (!segment.degenerate) ++live_children[segment.canonical_start];
   }
-  for (Segment& segment : rig.segments) segment.branch = live_children[segment.canonical_start] >= 2;
+  std::map<int, int> midline_children;  // canonical start above the pelvis -> its non-degenerate midline children
+  for (Segment& segment : rig.segments) {
+    segment.branch = live_children[segment.canonical_start] >= 2;
+    if (segment.branch && !segment.degenerate && segment.canonical_start != canonical::pelvis &&
+        canonical_mirror(segment.canonical_end) == segment.canonical_end) {
+      ++midline_children[segment.canonical_start];
+    }
+  }
+  for (Segment& segment : rig.segments) {
+    segment.spine_continuation = segment.branch && !segment.degenerate && segment.canonical_start != canonical::pelvis &&
+                                 canonical_mirror(segment.canonical_end) == segment.canonical_end &&
+                                 midline_children[segment.canonical_start] == 1;
+  }
 
   // Alignment terms (see rig.h).
   std::vector<Term> terms;

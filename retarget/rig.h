@@ -15,7 +15,12 @@
 // alignment, transfer and metrics leave it out. A segment's start is a branch joint when two or
 // more non-degenerate segments start there (pelvis -> hips and spine, chest -> neck and
 // clavicles, wrist -> fingers); otherwise the segment is a chain bone, the bone of its start
-// joint. On the target, a segment is detached when c's joint does not hang below a's joint (nor
+// joint. Above the pelvis, a branch joint's one midline child (chest -> neck, a single torso bone
+// -> head) is its spine continuation: the transfer aligns it exactly as it aligns chain bones, and
+// the shoulders, which hang from the same joint, take the difference in build with them (their
+// own bones are driven and stay exact). At the pelvis the midline child is not aligned: how the
+// spine leaves the pelvis is the build (RobotExpressive's pelvis -> spine leans 26 degrees from a
+// human's at rest), and turning the pelvis for it would swing the hips and so the legs. On the target, a segment is detached when c's joint does not hang below a's joint (nor
 // below one of its followers): RobotExpressive's feet are children of the root bone, not of the
 // shins. Such a segment's target direction is the direction a's bone would point at c if c were
 // attached: the rest offset a -> c turned with a's joint.
@@ -82,6 +87,7 @@ struct Segment {
   int target_start = -1, target_end = -1;  // target joints
   bool degenerate = false;
   bool branch = false;            // its start is a branch joint (see above)
+  bool spine_continuation = false;  // a branch segment aligned as chain bones are (see above)
   bool target_attached = true;    // false: detached on the target (see above)
   Eigen::Vector3d target_rest_direction = Eigen::Vector3d::Zero();  // unit, world; zero if degenerate
   double aligned_error_deg = 0;   // angle between source (aligned) and target rest directions

@@ -52,7 +52,6 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
   rest_rotation_.resize(n);
   for (int j = 0; j < n; ++j) rest_rotation_[j] = Eigen::Quaterniond(rest[j].rotation).normalized();
   const std::vector<Eigen::Quaterniond>& rest_rotation = rest_rotation_;
-  const double s = rig.scale;
   const int target_pelvis = rig.target_joint(canonical::pelvis);
   const int source_pelvis = rig.source_joint(canonical::pelvis);
   target_rest_pelvis_ = rest[target_pelvis].translation;
@@ -80,16 +79,7 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
     std::vector<const Segment*> children;  // the non-degenerate segments starting at c
     for (const Segment& segment : rig.segments) {
       if (segment.canonical_start == c && !segment.degenerate) children.push_back(&segment);
-      if (segment.canonical_end == c && !segment.target_attached) {
-        if (is_ancestor(target, target_pelvis, j)) {
-          attach(rule, j, segment.target_start);
-        } else {
-          rule.placement = JointRule::Placement::effector;
-          rule.source_joint = rig.source_joint(c);
-          rule.rest_discrepancy = (rest[j].translation - rest[target_pelvis].translation) -
-                                  s * (rig.source_aligned_positions[rule.source_joint] - rig.source_aligned_positions[source_pelvis]);
-        }
-      }
+      if (segment.canonical_end == c && !segment.target_attached) attach(rule, j, segment.target_start);
     }
     if (children.size() == 1) {
       rule.chord_from = children[0]->source_start;
@@ -102,6 +92,11 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
         const Eigen::Vector3d aligned =
             rig.source_aligned_positions[segment->source_end] - rig.source_aligned_positions[segment->source_start];
         branch_chords_.push_back({segment->source_start, segment->source_end, aligned.normalized()});
+        if (segment->spine_continuation) {
+          rule.chord_from = segment->source_start;
+          rule.chord_to = segment->source_end;
+          rule.chord_rest = rest_rotation[j].conjugate() * segment->target_rest_direction;
+        }
       }
     }
   }
@@ -162,7 +157,7 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
   };
   need(source_pelvis);
   for (const JointRule& rule : rules_) {
-    for (int joint : {rule.reference, rule.chord_from, rule.chord_to, rule.source_joint}) {
+    for (int joint : {rule.reference, rule.chord_from, rule.chord_to}) {
       if (joint >= 0) need(joint);
     }
   }
@@ -256,6 +251,10 @@ TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, co
               b.noalias() += now * chord.aligned_direction.transpose();
             }
             world[j] = Eigen::Quaterniond(rotation_factor(b, change)) * rest_rotation_[j];
+            if (rule.chord_from >= 0) {  // the spine continuation, swung exact
+              const Eigen::Vector3d wanted = (source_position[rule.chord_to] - source_position[rule.chord_from]).normalized();
+              world[j] = shortest_rotation(world[j] * rule.chord_rest, wanted) * world[j];
+            }
           } else if (rule.chord_from >= 0) {
             const Eigen::Vector3d carried = reference * rule.chord_rest;
             const Eigen::Vector3d wanted = (source_position[rule.chord_to] - source_position[rule.chord_from]).normalized();
@@ -283,12 +282,6 @@ TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, co
         case JointRule::Placement::root:
           position[j] = pelvis_target - world[j] * rule.root_to_pelvis;
           break;
-        case JointRule::Placement::effector: {
-          const Eigen::Quaterniond heading =
-              heading_of(source_rotation[rule.source_joint] * rig_.source_aligned_world[rule.source_joint].conjugate());
-          position[j] = pelvis_target + s * (source_position[rule.source_joint] - pelvis_source) + heading * rule.rest_discrepancy;
-          break;
-        }
         case JointRule::Placement::attached:
           position[j] = position[rule.anchor] + world[rule.anchor] * rule.anchor_offset;
           break;

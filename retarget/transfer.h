@@ -33,7 +33,11 @@
 // where the children went. The factor comes from Newton's polar iteration
 // X <- (X + X^-T) / 2 started from B / cbrt(det B): no SVD, a handful of 3x3 inverses. The
 // target's branch chords keep whatever angle the two rigs' builds put between them at rest
-// (hip width, shoulder slope); metrics.h reports them apart. The output is local:
+// (hip width, shoulder slope); metrics.h reports them apart. A branch joint with a spine
+// continuation (rig.h: chest -> neck) is then swung so that it is exact, as a chain bone is:
+//   W(t) = swing(R(t) v, u(t)) R(t) W^rest,   v, u(t) that segment's target rest and source directions;
+// the shoulders hanging from the same joint move with it by the few degrees the builds differ,
+// and their own bones, driven, stay exact. The output is local:
 // W(parent)^-1 W(t). A target joint with no paired role keeps its rest local rotation, so it
 // rides rigidly on its parent.
 //
@@ -52,22 +56,14 @@
 // or sinking by the difference, and a per-frame correction would add jitter.
 //
 // Joints placed by position (they become animated translations in the output clip):
-// - IK effectors: a target joint whose segment is detached (rig.h) and that does not hang below
-//   the target pelvis, as RobotExpressive's feet under the root bone. It goes where the scaled
-//   source joint is relative to the source pelvis:
-//     P(t) = P*(t) + s (p_S(S(c), t) - p_S(pelvis, t)) + H(t) d,
-//     d    = (P_T^rest(c) - P_T^rest(pelvis)) - s (p_S^al(S(c)) - p_S^al(pelvis)),
-//   where d is the rest-pose difference between the target's and the scaled source's leg (the
-//   robot's legs are short for its height, its feet wide apart) and H(t) the source joint's own
-//   turn about the vertical (the twist about z of D(t) of S(c)), so d turns as the foot turns
-//   and the stance stays as wide as the target's when the body has turned round. The pelvis
-//   terms cancel (P* moves with s p_S(pelvis)), so P(t) = s p_S(S(c), t) + H(t) d + constant: a
-//   planted source foot, which neither moves nor turns, gives a still target foot, on the floor
-//   (dz). (The pelvis's turn would swing d, and the foot with it, at every step: the pelvis yaws
-//   back and forth while the foot is planted.) Its rotation is transferred like any other joint;
-//   the shin above it still follows the source shin's direction (the detached segment's rest
-//   direction is the shin's, rig.h). The foot's height follows the source ankle, so on a rig
-//   without a ball-of-the-foot joint the foot joint rises with the source heel at toe-off.
+// - A detached segment's end (rig.h: RobotExpressive's feet hang from the root bone, not from the
+//   shins) is placed at the end of its segment's start joint A, as if it hung from it:
+//     P(t) = P(A, t) + W(A, t) W^rest(A)^-1 (P_T^rest(joint) - P_T^rest(A)),
+//   so the line a viewer sees from the knee to the foot follows the source shin exactly, as an
+//   attached foot does. (Placing such a foot where the scaled source's foot is instead keeps a
+//   planted foot still, but with legs built unlike the performer's, the robot's thigh two thirds
+//   of the scaled performer's, the shin it draws leaves the source's by 8-10 degrees; planting
+//   feet is the refinement's job, which places them this way too, refine_model.h.)
 // - One-joint feet with a toe (contacts.h: RobotExpressive's, a block 2.9 times as long, heel to
 //   toe, as the scaled performer's ankle to ball) take their pitch from positions, not from the
 //   source's rotation: copied, the performer's toe-off pitch (up to 55 degrees) drives the long
@@ -80,10 +76,8 @@
 //   z x f gives o.z = v cos theta - L sin theta = rho sin(phi - theta), rho = |o|,
 //   phi = atan2(v, L): theta = phi - asin(wanted / rho). Heading and roll stay the source's; a
 //   source foot without a ball of the foot leaves the rotation as it is.
-// - A detached joint that hangs inside the body (a thumb parented to the forearm instead of the
-//   palm), and followers (bone_map.h), ride rigidly on their canonical parent's target joint A:
-//     P(t) = P(A, t) + W(A, t) W^rest(A)^-1 (P_T^rest(joint) - P_T^rest(A)).
-//   Followers also take their rotation from A: W(t) = W(A, t) W^rest(A)^-1 W^rest.
+// - Followers (bone_map.h) ride rigidly on their canonical parent's target joint A, placed as
+//   above, and take their rotation from it: W(t) = W(A, t) W^rest(A)^-1 W^rest.
 //
 // Quaternion signs are kept continuous along the clip (each local rotation is the sign of the
 // two nearest the previous frame's; the first frame has w >= 0).
@@ -116,7 +110,7 @@ class FastTransfer {
  private:
   struct JointRule {
     enum class Rotation { rest, driven, follower };
-    enum class Placement { offset, root, effector, attached };
+    enum class Placement { offset, root, attached };
     Rotation rotation = Rotation::rest;
     Placement placement = Placement::offset;
     int parent = -1;
@@ -124,14 +118,14 @@ class FastTransfer {
     Eigen::Vector3d offset = Eigen::Vector3d::Zero();
     int reference = -1;  // driven: S(a)
     Eigen::Quaterniond reference_to_joint = Eigen::Quaterniond::Identity();  // Q_S^al(S(a))^-1 W^rest
-    int chord_from = -1, chord_to = -1;  // driven chain bones: source joints of the segment
-    Eigen::Vector3d chord_rest = Eigen::Vector3d::Zero();  // Q_S^al(S(a))^-1 v
+    // Driven chain bones and spine continuations: the segment's source joints, and v in the frame
+    // the rotation is composed in (Q_S^al(S(a))^-1 v for a chain bone, W^rest^-1 v for a branch).
+    int chord_from = -1, chord_to = -1;
+    Eigen::Vector3d chord_rest = Eigen::Vector3d::Zero();
     int branch_first = 0, branch_count = 0;  // driven branch joints: their chords in branch_chords_
     int anchor = -1;  // follower, attached: A
     Eigen::Quaterniond anchor_to_joint = Eigen::Quaterniond::Identity();  // W^rest(A)^-1 W^rest
     Eigen::Vector3d anchor_offset = Eigen::Vector3d::Zero();  // W^rest(A)^-1 (P^rest - P^rest(A))
-    int source_joint = -1;  // effector: S(c)
-    Eigen::Vector3d rest_discrepancy = Eigen::Vector3d::Zero();  // effector: d
     Eigen::Vector3d root_to_pelvis = Eigen::Vector3d::Zero();    // root: W^rest(root)^-1 (P^rest(pelvis) - P^rest(root))
     int toe_side = -1;  // a one-joint target foot with a toe (contacts.h): its side
   };
