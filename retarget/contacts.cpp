@@ -30,14 +30,11 @@ Foot foot_joints(const BoneMap& map, bool left) {
   return foot;
 }
 
-// Levelled world positions of every joint in one frame, into caller-owned buffers.
-void frame_positions(const Clip& clip, int frame, const Eigen::Quaterniond& levelling, std::vector<RigidTransform<double>>& local,
-                     std::vector<RigidTransform<double>>& world, std::vector<Eigen::Vector3d>& positions) {
-  clip.local_pose(frame, local);
-  RigidTransform<double> base;
-  base.rotation = levelling.toRotationMatrix();
-  forward_kinematics<double>(clip.skeleton.parents(), local, world, base);
-  for (std::size_t j = 0; j < world.size(); ++j) positions[j] = world[j].translation;
+// World positions of every joint in one frame, the roots hung from `pose.base` (a levelling),
+// into caller-owned buffers.
+void frame_positions(const Clip& clip, int frame, KinematicData<double>& pose, std::vector<Eigen::Vector3d>& positions) {
+  clip.world_pose(frame, pose);
+  for (std::size_t j = 0; j < positions.size(); ++j) positions[j] = pose.world[j].translation;
 }
 
 double percentile(std::vector<double> values, double fraction) {
@@ -149,11 +146,10 @@ Feet source_feet(const Clip& source, const BoneMap& map, const ContactOptions& o
     for (std::size_t k = 0; k < foot.joints.size(); ++k) tracks.push_back({&foot, k, {}, {}});
   }
   {
-    const int joints = source.joint_count();
-    std::vector<RigidTransform<double>> local(joints), world(joints);
-    std::vector<Eigen::Vector3d> positions(joints);
+    KinematicData<double> pose(source.skeleton.kinematics());
+    std::vector<Eigen::Vector3d> positions(source.joint_count());
     for (int f = 0; f < frames; ++f) {
-      frame_positions(source, f, Eigen::Quaterniond::Identity(), local, world, positions);
+      frame_positions(source, f, pose, positions);
       for (Track& track : tracks) track.position.push_back(positions[track.foot->joints[track.index]]);
     }
   }
@@ -243,14 +239,15 @@ FootContacts detect_contacts(const Clip& source, const Feet& feet, const Contact
   FootContacts contacts;
   for (auto& foot : contacts.planted) foot.assign(frames, 0);
   if (frames == 0) return contacts;
-  std::vector<RigidTransform<double>> local(joints), world(joints);
+  KinematicData<double> pose(source.skeleton.kinematics());
+  pose.base.rotation = feet.levelling.toRotationMatrix();
   std::vector<Eigen::Vector3d> current(joints), next(joints);
-  frame_positions(source, 0, feet.levelling, local, world, current);
+  frame_positions(source, 0, pose, current);
   for (int f = 0; f < frames; ++f) {
     // The step used for the speed: t -> t+1, or t-1 -> t for the last frame (after the swap
     // below, `next` then holds frame t-1).
     const bool last = f + 1 == frames;
-    if (!last) frame_positions(source, f + 1, feet.levelling, local, world, next);
+    if (!last) frame_positions(source, f + 1, pose, next);
     for (int side = 0; side < 2; ++side) {
       const Foot& foot = feet[side];
       const int k = lowest_foot_joint(foot, current);

@@ -22,19 +22,21 @@ struct Accumulator {
   DirectionError direction() const { return {mean(), max, samples}; }
 };
 
-// World rotations and positions of one frame of a clip, scaled, into reused buffers.
+// One frame of a clip in its levelled world (contacts.h), and its joints' positions scaled, in
+// buffers reused from frame to frame.
 struct FramePose {
-  std::vector<RigidTransform<double>> local, world;
+  KinematicData<double> kinematics;
   std::vector<Eigen::Vector3d> position;
 
-  explicit FramePose(int joints) : local(joints), world(joints), position(joints) {}
-  void pose(const Clip& clip, int frame, double scale, const Eigen::Quaterniond& levelling) {
-    clip.local_pose(frame, local);
-    RigidTransform<double> base;
-    base.rotation = levelling.toRotationMatrix();
-    forward_kinematics<double>(clip.skeleton.parents(), local, world, base);
-    for (std::size_t j = 0; j < world.size(); ++j) position[j] = scale * world[j].translation;
+  FramePose(const Clip& clip, const Eigen::Quaterniond& levelling)
+      : kinematics(clip.skeleton.kinematics()), position(clip.joint_count()) {
+    kinematics.base.rotation = levelling.toRotationMatrix();
   }
+  void pose(const Clip& clip, int frame, double scale) {
+    clip.world_pose(frame, kinematics);
+    for (std::size_t j = 0; j < position.size(); ++j) position[j] = scale * kinematics.world[j].translation;
+  }
+  const Eigen::Matrix3d& rotation(int joint) const { return kinematics.world[joint].rotation; }
 };
 
 // Skate, penetration/floating and jitter of one clip: streams the frames keeping the two before.
@@ -45,8 +47,7 @@ void motion_metrics(const Clip& clip, double scale, const Feet& feet, const Foot
                     const std::vector<int>& jitter_joints, const MetricThresholds& scaled, const MetricThresholds& gmd,
                     RetargetMetrics& metrics) {
   const int frames = clip.frame_count();
-  const int joints = clip.joint_count();
-  FramePose before2(joints), before(joints), now(joints);
+  FramePose before2(clip, feet.levelling), before(clip, feet.levelling), now(clip, feet.levelling);
   long skating = 0, skating_gmd = 0, skate_samples = 0, contact_samples = 0;
   double depth_sum = 0, height_sum = 0, jitter_sum = 0;
   long jitter_samples = 0;
@@ -58,10 +59,10 @@ void motion_metrics(const Clip& clip, double scale, const Feet& feet, const Foot
   // joints[0]'s world rotation times the scale, which carries a toe offset (contacts.h) to where
   // the scaled clip has it.
   const auto toe_frame = [scale](const Foot& foot, const FramePose& pose) -> Eigen::Matrix3d {
-    return scale * pose.world[foot.joints[0]].rotation;
+    return scale * pose.rotation(foot.joints[0]);
   };
   for (int f = 0; f < frames; ++f) {
-    now.pose(clip, f, scale, feet.levelling);
+    now.pose(clip, f, scale);
     for (int side = 0; side < 2; ++side) {
       const Foot& foot = scaled_feet[side];
       const Eigen::Matrix3d now_toe = toe_frame(foot, now);
@@ -158,11 +159,11 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
   }
   const int source_pelvis = rig.source_joint(canonical::pelvis);
   const int target_pelvis = rig.target_joint(canonical::pelvis);
-  FramePose source_pose(source.joint_count()), target_pose(result.joint_count());
+  FramePose source_pose(source, source_feet.levelling), target_pose(result, target_feet.levelling);
   Accumulator effector_error;
   for (int f = 0; f < result.frame_count(); ++f) {
-    source_pose.pose(source, f, rig.scale, source_feet.levelling);
-    target_pose.pose(result, f, 1.0, target_feet.levelling);
+    source_pose.pose(source, f, rig.scale);
+    target_pose.pose(result, f, 1.0);
     for (Bone& bone : bones) {
       const Segment& segment = *bone.segment;
       const Eigen::Vector3d source_direction = source_pose.position[segment.source_end] - source_pose.position[segment.source_start];

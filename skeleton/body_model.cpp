@@ -262,7 +262,10 @@ struct BodyModelEvaluator::Workspace {
   // (216 of 486 for SMPL-X without hands: less than half the bytes streamed per frame).
   int corrective_columns = 0;
 
-  std::vector<RigidTransform<double>> local, world;
+  // The kinematic chain (parents, as the model has them) and its pose: local translations from
+  // set_shape, rotations per frame.
+  KinematicModel chain;
+  KinematicData<double> pose;
   // Skinning matrices A_j = G_j [I | -J_j] as 4x4 column-major with a zero last row, so blending
   // and applying them are whole-register operations: frame f, joint j at [f * J + j].
   std::vector<Eigen::Matrix4d> skinning;
@@ -328,8 +331,8 @@ BodyModelEvaluator::BodyModelEvaluator(const BodyModel& model, BodyModelOptions 
     ws.groups.push_back(std::move(group));
   }
 
-  ws.local.resize(joints);
-  ws.world.resize(joints);
+  ws.chain = KinematicModel(model_.parents, std::vector<RigidTransform<double>>(joints));
+  ws.pose = KinematicData<double>(ws.chain);
   ws.reserve(1, joints, vertices);
   set_shape({});
 }
@@ -367,8 +370,8 @@ void BodyModelEvaluator::set_shape(std::span<const double> betas, std::span<cons
   Workspace& ws = *workspace_;
   for (int j = 0; j < joints; ++j) {
     const int parent = model_.parents[j];
-    ws.local[j].translation = rest_joints_.row(j).transpose();
-    if (parent >= 0) ws.local[j].translation -= rest_joints_.row(parent).transpose();
+    ws.pose.local[j].translation = rest_joints_.row(j).transpose();
+    if (parent >= 0) ws.pose.local[j].translation -= rest_joints_.row(parent).transpose();
   }
 }
 
@@ -377,7 +380,7 @@ void BodyModelEvaluator::pose_frame(std::span<const double> full_pose, const Eig
   Workspace& ws = *workspace_;
   const int joints = model_.joint_count();
   for (int j = 0; j < joints; ++j) {
-    Eigen::Matrix3d& rotation = ws.local[j].rotation;
+    Eigen::Matrix3d& rotation = ws.pose.local[j].rotation;
     if (ws.rotation_free[j]) {
       rotation = rodrigues(Eigen::Vector3d(full_pose[3 * j], full_pose[3 * j + 1], full_pose[3 * j + 2]));
     } else {
@@ -391,9 +394,9 @@ void BodyModelEvaluator::pose_frame(std::span<const double> full_pose, const Eig
       }
     }
   }
-  forward_kinematics<double>(model_.parents, ws.local, ws.world);
+  forward_kinematics(ws.chain, ws.pose);
   for (int j = 0; j < joints; ++j) {
-    const RigidTransform<double>& g = ws.world[j];
+    const RigidTransform<double>& g = ws.pose.world[j];
     for (int c = 0; c < 3; ++c) joints_out[3 * j + c] = g.translation[c] + translation[c];
     if (skinning != nullptr) {
       // A_j = G_j [I | -J_j] = [R_j^world | t_j^world - R_j^world J_j].

@@ -54,10 +54,15 @@ void Clip::local_pose(int frame, std::span<RigidTransform<double>> local) const 
   for (std::size_t t = 0; t < k; ++t) local[translated_joints[t]].translation = translations[frame * k + t];
 }
 
+void Clip::world_pose(int frame, KinematicData<double>& data) const {
+  local_pose(frame, data.local);
+  forward_kinematics(skeleton.kinematics(), data);
+}
+
 void Clip::world_pose(int frame, std::span<RigidTransform<double>> world) const {
-  std::vector<RigidTransform<double>> local(joint_count());
-  local_pose(frame, local);
-  forward_kinematics<double>(skeleton.parents(), local, world);
+  KinematicData<double> data(skeleton.kinematics());
+  world_pose(frame, data);
+  std::copy(data.world.begin(), data.world.end(), world.begin());
 }
 
 Clip Clip::resampled(double target_fps) const {

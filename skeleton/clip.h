@@ -34,7 +34,10 @@ struct Clip {
 
   // Local transforms of one frame (rest offsets where not animated).
   void local_pose(int frame, std::span<RigidTransform<double>> local) const;
-  // World transforms of one frame.
+  // One frame posed on skeleton.kinematics(): data.local from local_pose, data.world by forward
+  // kinematics from data.base (kept as the caller set it: a levelling, say). Allocates nothing.
+  void world_pose(int frame, KinematicData<double>& data) const;
+  // World transforms of one frame (roots hung from the origin).
   void world_pose(int frame, std::span<RigidTransform<double>> world) const;
 
   // The clip sampled at `target_fps` over the same duration: frame k sits at time k / target_fps;

@@ -1,5 +1,6 @@
 #include "skeleton/skeleton.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace odyssey {
@@ -25,6 +26,9 @@ Skeleton::Skeleton(std::vector<std::string> names, std::vector<int> parents, std
     }
     rest_rotations_[i].normalize();
   }
+  std::vector<RigidTransform<double>> rest(n);
+  for (std::size_t i = 0; i < n; ++i) rest[i] = {rest_rotations_[i].toRotationMatrix(), rest_offsets_[i]};
+  kinematics_ = KinematicModel(parents_, std::move(rest));
 }
 
 Skeleton Skeleton::from_unordered(std::vector<std::string> names, std::vector<int> parents,
@@ -103,17 +107,13 @@ std::vector<int> Skeleton::children(int joint) const {
 }
 
 void Skeleton::rest_local(std::span<RigidTransform<double>> local) const {
-  for (int i = 0; i < joint_count(); ++i) {
-    local[i].rotation = rest_rotations_[i].toRotationMatrix();
-    local[i].translation = rest_offsets_[i];
-  }
+  std::copy(kinematics_.rest.begin(), kinematics_.rest.end(), local.begin());
 }
 
 std::vector<RigidTransform<double>> Skeleton::rest_world() const {
-  std::vector<RigidTransform<double>> local(joint_count()), world(joint_count());
-  rest_local(local);
-  forward_kinematics<double>(parents_, local, world);
-  return world;
+  KinematicData<double> rest(kinematics_);
+  forward_kinematics(kinematics_, rest);
+  return std::move(rest.world);
 }
 
 }  // namespace odyssey

@@ -41,6 +41,10 @@ class Skeleton {
   int find(const std::string& name) const;
   std::vector<int> children(int joint) const;
 
+  // The tree and its rest pose as forward kinematics reads them (fk.h): parents, rest local
+  // transforms, joints in index order.
+  const KinematicModel& kinematics() const { return kinematics_; }
+
   // Rest pose: local transforms and their world transforms (parents chained from the origin).
   void rest_local(std::span<RigidTransform<double>> local) const;
   std::vector<RigidTransform<double>> rest_world() const;
@@ -50,6 +54,7 @@ class Skeleton {
   std::vector<int> parents_;
   std::vector<Eigen::Vector3d> rest_offsets_;
   std::vector<Eigen::Quaterniond> rest_rotations_;
+  KinematicModel kinematics_;
 };
 
 }  // namespace odyssey
