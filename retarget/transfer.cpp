@@ -1,6 +1,7 @@
 #include "retarget/transfer.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -12,6 +13,86 @@ namespace odyssey::retarget {
 namespace {
 
 constexpr double kBranchTwistWeight = 0.1;  // eps in transfer.h
+constexpr double kFloorSmoothingSeconds = 0.1;  // sigma of dz(t) in transfer.h
+constexpr double kSlideSmoothingSeconds = 0.05;  // sigma of c(t)'s steps in transfer.h
+
+// `values` convolved with a Gaussian of `sigma` samples, cut at 3 sigma and normalised where it
+// runs past either end.
+std::vector<double> gaussian_smoothed(const std::vector<double>& values, double sigma) {
+  const int frames = static_cast<int>(values.size());
+  const int radius = static_cast<int>(std::ceil(3 * sigma));
+  std::vector<double> kernel(radius + 1);
+  for (int k = 0; k <= radius; ++k) kernel[k] = std::exp(-0.5 * k * k / (sigma * sigma));
+  std::vector<double> smoothed(frames);
+  for (int f = 0; f < frames; ++f) {
+    double sum = 0, weight = 0;
+    for (int g = std::max(0, f - radius); g <= std::min(frames - 1, f + radius); ++g) {
+      sum += kernel[std::abs(g - f)] * values[g];
+      weight += kernel[std::abs(g - f)];
+    }
+    smoothed[f] = sum / weight;
+  }
+  return smoothed;
+}
+
+// dz(t) of transfer.h from the per-frame gaps: `gaps[2 f + side]`, `planted[side][f]`.
+std::vector<double> floor_offsets(const std::vector<double>& gaps, const FootContacts& contacts, double fps) {
+  const int frames = static_cast<int>(gaps.size() / 2);
+  std::vector<double> wanted(frames, 0.0);
+  std::vector<int> known;  // frames with a planted foot
+  for (int f = 0; f < frames; ++f) {
+    double sum = 0;
+    int count = 0;
+    for (int side = 0; side < 2; ++side) {
+      if (!contacts.planted[side][f]) continue;
+      sum += gaps[2 * f + side];
+      ++count;
+    }
+    if (count == 0) continue;
+    wanted[f] = sum / count;
+    known.push_back(f);
+  }
+  if (known.empty()) {
+    double sum = 0;
+    for (double gap : gaps) sum += gap;
+    return std::vector<double>(frames, gaps.empty() ? 0.0 : sum / static_cast<double>(gaps.size()));
+  }
+  for (int f = 0; f < known.front(); ++f) wanted[f] = wanted[known.front()];
+  for (int f = known.back() + 1; f < frames; ++f) wanted[f] = wanted[known.back()];
+  for (std::size_t k = 0; k + 1 < known.size(); ++k) {
+    const int a = known[k], b = known[k + 1];
+    for (int f = a + 1; f < b; ++f) wanted[f] = wanted[a] + (wanted[b] - wanted[a]) * (f - a) / (b - a);
+  }
+  return gaussian_smoothed(wanted, kFloorSmoothingSeconds * fps);
+}
+
+// c(t) of transfer.h from the feet's horizontal steps: `steps[2 f + side]` is the target support
+// point's step from frame f to f + 1 minus the scaled source's, valid where the foot is planted
+// in both frames.
+std::vector<Eigen::Vector2d> slide_corrections(const std::vector<Eigen::Vector2d>& steps, const FootContacts& contacts, double fps) {
+  const int frames = contacts.frame_count();
+  std::vector<Eigen::Vector2d> increments(frames, Eigen::Vector2d::Zero());  // c(f) - c(f - 1)
+  for (int f = 0; f + 1 < frames; ++f) {
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    int count = 0;
+    for (int side = 0; side < 2; ++side) {
+      if (!contacts.planted[side][f] || !contacts.planted[side][f + 1]) continue;
+      sum += steps[2 * std::size_t(f) + side];
+      ++count;
+    }
+    if (count > 0) increments[f + 1] = -sum / count;
+  }
+  std::vector<double> x(frames), y(frames);
+  for (int f = 0; f < frames; ++f) {
+    x[f] = increments[f].x();
+    y[f] = increments[f].y();
+  }
+  x = gaussian_smoothed(x, kSlideSmoothingSeconds * fps);
+  y = gaussian_smoothed(y, kSlideSmoothingSeconds * fps);
+  std::vector<Eigen::Vector2d> corrections(frames, Eigen::Vector2d::Zero());
+  for (int f = 1; f < frames; ++f) corrections[f] = corrections[f - 1] + Eigen::Vector2d(x[f], y[f]);
+  return corrections;
+}
 
 // The rotation factor R of the polar decomposition B = R S (S symmetric positive definite), the
 // rotation nearest B, by Newton's iteration X <- (X + X^-T) / 2, which converges quadratically
@@ -213,8 +294,12 @@ TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, co
   std::vector<Eigen::Vector3d> source_position(source_joints);
   std::vector<Eigen::Quaterniond> world(target_joints);
   std::vector<Eigen::Vector3d> position(target_joints);
-  double planted_sum = 0, all_sum = 0;
-  long planted_samples = 0, all_samples = 0;
+  std::vector<double> gaps(2 * std::size_t(frames));  // g(foot, t) of transfer.h
+  // Per foot: the support points (lowest) of the last frame, target and source, and the steps
+  // since (slide_corrections).
+  std::vector<Eigen::Vector2d> steps(2 * std::size_t(frames), Eigen::Vector2d::Zero());
+  std::array<int, 2> last_target_point{}, last_source_joint{};
+  std::array<Eigen::Vector3d, 2> last_target_support, last_source_support;
 
   for (int f = 0; f < frames; ++f) {
     const Eigen::Quaterniond* local_rotation = &source.rotations[std::size_t(f) * source_joints];
@@ -308,19 +393,30 @@ TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, co
 
     for (int side = 0; side < 2; ++side) {
       const Foot& target_foot = target_feet_[side];
-      const double gap = s * foot_clearance(source_feet[side], source_position) -
-                         foot_clearance(target_foot, position, world[target_foot.joints[0]].toRotationMatrix());
-      all_sum += gap;
-      ++all_samples;
-      if (contacts.planted[side][f]) {
-        planted_sum += gap;
-        ++planted_samples;
+      const Foot& source_foot = source_feet[side];
+      const Eigen::Matrix3d first_rotation = world[target_foot.joints[0]].toRotationMatrix();
+      gaps[2 * std::size_t(f) + side] = s * foot_clearance(source_foot, source_position) -
+                                        foot_clearance(target_foot, position, first_rotation);
+      if (f > 0) {
+        const Eigen::Vector3d target_step = target_foot.point(last_target_point[side], position, first_rotation) - last_target_support[side];
+        const Eigen::Vector3d source_step = source_position[source_foot.joints[last_source_joint[side]]] - last_source_support[side];
+        steps[2 * std::size_t(f - 1) + side] = (target_step - s * source_step).head<2>();
       }
+      last_target_point[side] = lowest_foot_point(target_foot, position, first_rotation);
+      last_source_joint[side] = lowest_foot_joint(source_foot, source_position);
+      last_target_support[side] = target_foot.point(last_target_point[side], position, first_rotation);
+      last_source_support[side] = source_position[source_foot.joints[last_source_joint[side]]];
     }
   }
 
-  result.floor_offset = planted_samples > 0 ? planted_sum / planted_samples : (all_samples > 0 ? all_sum / all_samples : 0.0);
-  for (int f = 0; f < frames; ++f) out.translations[std::size_t(f) * tracks + root_track_].z() += result.floor_offset;
+  const std::vector<double> offsets = floor_offsets(gaps, contacts, source.fps);
+  const std::vector<Eigen::Vector2d> slides = slide_corrections(steps, contacts, source.fps);
+  for (int f = 0; f < frames; ++f) {
+    Eigen::Vector3d& root = out.translations[std::size_t(f) * tracks + root_track_];
+    root.head<2>() += slides[f];
+    root.z() += offsets[f];
+    result.floor_offset += offsets[f] / frames;
+  }
   return result;
 }
 

@@ -45,15 +45,36 @@
 // so Q_S and p_S below are the levelled source's.
 //
 // Root motion. The target pelvis joint is put at
-//   P*(t) = P_T^rest(pelvis) + s (p_S(pelvis, t) - p_S^rest(pelvis)) + (0, 0, dz)
-// by translating the target skeleton's root (the pelvis itself, or a root above it that keeps its
-// rest rotation, as RobotExpressive's `Bone`). dz keeps the floor: with clearances as in
-// contacts.h, dz is chosen so that over the frames where a source foot is planted the target
-// foot's clearance equals the scaled source foot's on average:
-//   dz = mean over planted (foot, t) of [ s clearance_S(t) - clearance_T(t) ]   (before dz),
-// or over every (foot, t) when the source never plants a foot. One constant for the clip: a
-// leg-length ratio that differs from the height ratio would otherwise leave the target floating
-// or sinking by the difference, and a per-frame correction would add jitter.
+//   P*(t) = P_T^rest(pelvis) + s (p_S(pelvis, t) - p_S^rest(pelvis)) + (0, 0, dz(t))
+// (then moved horizontally by c(t), below) by translating the target skeleton's root (the pelvis
+// itself, or a root above it that keeps its rest rotation, as RobotExpressive's `Bone`). dz(t) keeps the floor from the legs' reach: the
+// target's legs follow the source's directions, but their lengths need not be s times the
+// performer's (RobotExpressive's thighs are two thirds of the scaled performer's, its shins as
+// long), so a planted foot stands higher or lower than the scaled source's by an amount that
+// changes with how far the knees bend. With clearances as in contacts.h, per foot and frame the
+// gap is
+//   g(foot, t) = s clearance_S(foot, t) - clearance_T(foot, t)   (before dz),
+// and
+//   n(t)  = mean of g over the feet the source plants at t,
+//           linear between the nearest frames with a contact (held before the first and after
+//           the last; every foot's mean when the source never plants one),
+//   dz(t) = n smoothed by a Gaussian of sigma = 0.1 s (normalised where it runs past the clip).
+// The planted feet then stay on the floor through a crouch, a flight lands where the next contact
+// wants the body, and the smoothing keeps contacts starting and ending from jerking the body.
+// One constant for the clip (the mean of g) left a robot's feet floating or sunk 2 cm on average
+// at fast, up to 5 cm in the CMU jump's crouch.
+//
+// The same legs make a planted foot slide: with the thigh shorter than the scaled performer's,
+// the foot under a pelvis that travels s times the performer's path moves while the source's
+// stays. The root is moved horizontally by c(t), which the planted feet drive:
+//   e(foot, t) = horizontal part of [ (p_T(k, t+1) - p_T(k, t)) - s (p_S(k', t+1) - p_S(k', t)) ],
+//                k, k' the target's and the source's lowest foot point at t (contacts.h),
+//   c(t+1) - c(t) = - mean of e over the feet planted at both t and t+1 (0 when none is),
+// the steps smoothed by a Gaussian of sigma = 0.05 s before they are summed. A planted foot then
+// slides as much as the scaled source's (not less: the performer's own slip is the motion), and
+// the character covers the ground its legs walk, as a stride fitted per step. c(0) = 0: the clip
+// starts where the scaled source does. With both feet planted, each moves by half of what the two
+// disagree; no root motion can still both when the legs' proportions say otherwise.
 //
 // Joints placed by position (they become animated translations in the output clip):
 // - A detached segment's end (rig.h: RobotExpressive's feet hang from the root bone, not from the
@@ -92,7 +113,7 @@ namespace odyssey::retarget {
 
 struct TransferResult {
   Clip clip;                // on rig.target, at the source's frame rate
-  double floor_offset = 0;  // dz above, m
+  double floor_offset = 0;  // dz(t) above averaged over the clip, m
 };
 
 class FastTransfer {
