@@ -35,6 +35,16 @@ inline Eigen::Quaterniond heading_of(const Eigen::Quaterniond& q) {
   return Eigen::Quaterniond(q.w() / norm, 0.0, 0.0, q.z() / norm);
 }
 
+// 2 vec(a^-1 b), its sign chosen so that the scalar part of a^-1 b counts as >= 0: for small
+// angles the rotation vector that turns a into b (in a's frame), the same for b and -b. Templated
+// for Ceres jets (the rest alignment's and the refinement's pose regularisers).
+template <class T>
+Eigen::Matrix<T, 3, 1> rotation_difference(const Eigen::Quaternion<T>& a, const Eigen::Quaternion<T>& b) {
+  const Eigen::Quaternion<T> change = a.conjugate() * b;
+  const T sign = change.w() < T(0) ? T(-2) : T(2);
+  return sign * change.vec();
+}
+
 // The angle between two vectors in degrees; atan2(|a x b|, a . b) stays accurate near 0 and pi,
 // where acos does not.
 inline double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {

@@ -99,6 +99,9 @@ class TinyLimbSolver final : public LimbSolver {
 
   int solve(const LimbFrame& frame, FramePose& pose) override {
     cost_.frame = &frame;
+    // What the evaluations leave alone is cast once per frame; they set the owned slots and dp.
+    cost_.work.plain.load(frame);
+    cost_.work.jet.load(frame);
     typename Solver::Parameters x = Solver::Parameters::Zero();
     solver_.Solve(function_, &x);
     const Limb& limb = cost_.limb;
@@ -123,8 +126,7 @@ class TinyLimbSolver final : public LimbSolver {
     template <class T>
     bool operator()(const T* x, T* residual) const {
       LimbWork<T>& w = work.template get<T>();
-      for (int s = 0; s < limb.owned; ++s) w.slot[s] = frame->slot_value[s].template cast<T>() * rotation_from_vector(x + 3 * s);
-      for (std::size_t s = limb.owned; s < limb.slots.size(); ++s) w.slot[s] = frame->slot_value[s].template cast<T>();
+      for (int s = 0; s < limb.owned; ++s) w.slot(s) = frame->slot_value[s].template cast<T>() * rotation_from_vector(x + 3 * s);
       Vector3<T> offset = frame->pelvis_offset.template cast<T>();
       if (limb.moves_pelvis) offset += Eigen::Map<const Vector3<T>>(x + 3 * limb.owned);
       limb_residuals(limb, weights, *frame, offset, w, residual);
@@ -155,14 +157,18 @@ std::unique_ptr<LimbSolver> make_limb_solver(const Limb& limb, const RefineWeigh
 }
 
 // Accurate: one limb of one frame of a window, over Ceres parameter blocks: dp (3, when the limb
-// moves the pelvis), then one unit quaternion (x, y, z, w) per slot. Derivatives are taken 16 at
-// a time (the lower body's 3 + 6 x 4 parameters in two passes).
+// moves the pelvis), then one unit quaternion (x, y, z, w) per owned slot (held slots keep the
+// frame's value). Derivatives are taken 16 at a time (the lower body's 3 + 6 x 4 parameters in
+// two passes).
 constexpr int kWindowStride = 16;
 
 class WindowLimbCost {
  public:
   WindowLimbCost(const Limb& limb, const RefineWeights& weights, const LimbFrame& frame)
-      : limb_(limb), weights_(weights), frame_(frame), work_(limb) {}
+      : limb_(limb), weights_(weights), frame_(frame), work_(limb) {
+    work_.plain.load(frame);
+    work_.jet.load(frame);
+  }
 
   template <class T>
   bool operator()(T const* const* parameters, T* residual) const {
@@ -170,7 +176,7 @@ class WindowLimbCost {
     int block = 0;
     Vector3<T> offset = frame_.pelvis_offset.template cast<T>();
     if (limb_.moves_pelvis) offset = Eigen::Map<const Vector3<T>>(parameters[block++]);
-    for (std::size_t s = 0; s < limb_.slots.size(); ++s) w.slot[s] = Eigen::Map<const Eigen::Quaternion<T>>(parameters[block++]);
+    for (int s = 0; s < limb_.owned; ++s) w.slot(s) = Eigen::Map<const Eigen::Quaternion<T>>(parameters[block++]);
     limb_residuals(limb_, weights_, frame_, offset, w, residual);
     return true;
   }
@@ -326,165 +332,209 @@ long balanced_pass(Refinement& refinement, Clip& out, int& window_count) {
 // solutions are cross-faded (smoothstep), so no seam is left where one window's solution meets
 // the next's. The upper body keeps its balanced solution: its residuals read neither dp nor the
 // legs, and its corrections (end effectors against directions, no contacts) change smoothly.
-long accurate_pass(const Refinement& refinement, Clip& out, int& window_count) {
-  const RefineModel& model = refinement.model;
-  const RefineOptions& options = refinement.options;
-  const RefineWeights& weights = options.weights;
-  const int frames = refinement.frames();
-  const int unknowns = refinement.unknowns();
-  const int size = options.window_frames;
-  const int margin = options.window_margin;
-  const double fps_squared = refinement.reference.fps * refinement.reference.fps;
-  window_count = (frames + size - 1) / size;
-  const auto lower = std::find_if(model.limbs.begin(), model.limbs.end(), [](const Limb& limb) { return limb.moves_pelvis; });
-  if (lower == model.limbs.end()) return 0;
-  const Limb& limb = *lower;
-  const int slots = static_cast<int>(limb.slots.size());
+class AccuratePass {
+ public:
+  AccuratePass(const Refinement& refinement, const Limb& limb)
+      : refinement_(refinement),
+        options_(refinement.options),
+        limb_(limb),
+        frames_(refinement.frames()),
+        window_count_((frames_ + options_.window_frames - 1) / options_.window_frames),
+        solutions_(window_count_),
+        iterations_(window_count_, 0) {
+    solver_options_.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    solver_options_.max_num_iterations = options_.window_iterations;
+    solver_options_.function_tolerance = 1e-8;
+    solver_options_.gradient_tolerance = 1e-12;
+    solver_options_.parameter_tolerance = 1e-8;
+    solver_options_.num_threads = 1;
+    solver_options_.logging_type = ceres::SILENT;
+  }
 
+  // Solves every window, then writes the kept frames into `out`; returns the solver iterations.
+  long run(Clip& out) {
+    const auto make_state = [this] { return State(*this); };
+    for_each_window(window_count_, options_.threads, make_state, [this](int window, State& state) { solve(window, state); });
+    for_each_window(window_count_, options_.threads, make_state, [&](int window, State& state) { write(window, state, out); });
+    long total = 0;
+    for (long count : iterations_) total += count;
+    return total;
+  }
+
+ private:
   // A window's solution over the frames it solves, [first, end).
   struct WindowSolution {
     int first = 0, end = 0;
-    std::vector<Eigen::Quaterniond> rotation;  // [frame - first][slot]
+    std::vector<Eigen::Quaterniond> rotation;  // [frame - first][owned slot]
     std::vector<Eigen::Vector3d> offset;       // [frame - first]
-  };
-  std::vector<WindowSolution> solutions(window_count);
-  std::vector<long> iterations(window_count, 0);
-  const auto kept_range = [&](int window) { return std::pair{window * size, std::min(frames, (window + 1) * size)}; };
 
+    Eigen::Quaterniond& slot(int f, int s, int owned) { return rotation[std::size_t(f - first) * owned + s]; }
+    const Eigen::Quaterniond& slot(int f, int s, int owned) const { return rotation[std::size_t(f - first) * owned + s]; }
+  };
+
+  // A thread's buffers. Cauchy losses rho(s) = b^2 log(1 + s / b^2) on the accelerations:
+  // quadratic below b, where they smooth, and nearly flat far above it, so a genuine jump (the
+  // T-pose reference frame that opens CMU files) is left alone instead of being smeared over its
+  // neighbours. The residuals at the limits: w alpha / 2 (Delta^2 c is about alpha / 2 / fps^2),
+  // and w a for the pelvis (its residuals are in 1.7 m units, as the limit).
   struct State {
     FrameBuilder builder;
     std::vector<LimbFrame> limb_frames;  // [frame in window]
     FramePose pose;
     ceres::EigenQuaternionManifold manifold;
     ceres::CauchyLoss rotation_jump, pelvis_jump;
-  };
-  // Cauchy losses rho(s) = b^2 log(1 + s / b^2) on the accelerations: quadratic below b, where
-  // they smooth, and nearly flat far above it, so a genuine jump (the T-pose reference frame that
-  // opens CMU files) is left alone instead of being smeared over its neighbours.
-  // The residuals at the limits: w alpha / 2 (Delta^2 c is about alpha / 2 / fps^2), and w a for
-  // the pelvis (its residuals are in 1.7 m units, as the limit).
-  const double rotation_scale = weights.smoothness * options.smoothness_limit / 2;
-  const double pelvis_scale = weights.pelvis_smoothness * options.pelvis_smoothness_limit;
-  const auto make_state = [&] {
-    return State{FrameBuilder(model, refinement.reference, refinement.source, refinement.source_feet), {}, {}, {},
-                 ceres::CauchyLoss(rotation_scale), ceres::CauchyLoss(pelvis_scale)};
-  };
-  const auto balanced_pose = [&](int f, FramePose& pose) {
-    pose.rotation.assign(refinement.solved_rotation.begin() + std::ptrdiff_t(f) * unknowns,
-                         refinement.solved_rotation.begin() + std::ptrdiff_t(f + 1) * unknowns);
-    pose.pelvis_offset = refinement.solved_offset[f];
-  };
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  solver_options.max_num_iterations = options.window_iterations;
-  solver_options.function_tolerance = 1e-8;
-  solver_options.gradient_tolerance = 1e-12;
-  solver_options.parameter_tolerance = 1e-8;
-  solver_options.num_threads = 1;
-  solver_options.logging_type = ceres::SILENT;
 
-  const auto solve = [&](int window, State& state) {
+    explicit State(const AccuratePass& pass)
+        : builder(pass.refinement_.model, pass.refinement_.reference, pass.refinement_.source, pass.refinement_.source_feet),
+          rotation_jump(pass.options_.weights.smoothness * pass.options_.smoothness_limit / 2),
+          pelvis_jump(pass.options_.weights.pelvis_smoothness * pass.options_.pelvis_smoothness_limit) {}
+  };
+
+  std::pair<int, int> kept_range(int window) const {
+    const int size = options_.window_frames;
+    return {window * size, std::min(frames_, (window + 1) * size)};
+  }
+
+  // The balanced pass's solution of frame f.
+  void balanced_pose(int f, FramePose& pose) const {
+    const int unknowns = refinement_.unknowns();
+    pose.rotation.assign(refinement_.solved_rotation.begin() + std::ptrdiff_t(f) * unknowns,
+                         refinement_.solved_rotation.begin() + std::ptrdiff_t(f + 1) * unknowns);
+    pose.pelvis_offset = refinement_.solved_offset[f];
+  }
+
+  void solve(int window, State& state) {
     const auto [kept_first, kept_end] = kept_range(window);
-    WindowSolution& solution = solutions[window];
-    solution.first = std::max(0, kept_first - margin);
-    solution.end = std::min(frames, kept_end + margin);
+    WindowSolution& solution = solutions_[window];
+    solution.first = std::max(0, kept_first - options_.window_margin);
+    solution.end = std::min(frames_, kept_end + options_.window_margin);
     const int count = solution.end - solution.first;
+    const int owned = limb_.owned;
     state.limb_frames.resize(count);
-    solution.rotation.resize(std::size_t(count) * slots);
+    solution.rotation.resize(std::size_t(count) * owned);
     solution.offset.resize(count);
-    for (int i = 0; i < count; ++i) {
-      const int f = solution.first + i;
+    for (int f = solution.first; f < solution.end; ++f) {
       state.builder.load(f);
       balanced_pose(f, state.pose);
-      for (int s = 0; s < slots; ++s) solution.rotation[std::size_t(i) * slots + s] = state.pose.rotation[limb.slots[s]];
-      solution.offset[i] = state.pose.pelvis_offset;
-      state.builder.fill(limb, state.pose, refinement.plan, state.limb_frames[i]);
+      for (int s = 0; s < owned; ++s) solution.slot(f, s, owned) = state.pose.rotation[limb_.slots[s]];
+      solution.offset[f - solution.first] = state.pose.pelvis_offset;
+      state.builder.fill(limb_, state.pose, refinement_.plan, state.limb_frames[f - solution.first]);
     }
 
     ceres::Problem::Options problem_options;
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);
-    const auto rotation_block = [&](int i, int s) { return solution.rotation[std::size_t(i) * slots + s].coeffs().data(); };
+    add_limb_costs(problem, solution, state);
+    add_smoothness(problem, solution, state);
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver_options_, &problem, &summary);
+    iterations_[window] = static_cast<long>(summary.iterations.size());
+  }
+
+  // Every frame's limb residuals over its dp and owned slots.
+  void add_limb_costs(ceres::Problem& problem, WindowSolution& solution, State& state) const {
+    const int owned = limb_.owned;
     std::vector<double*> blocks;
-    for (int i = 0; i < count; ++i) {
+    for (int f = solution.first; f < solution.end; ++f) {
       auto* cost = new ceres::DynamicAutoDiffCostFunction<WindowLimbCost, kWindowStride>(
-          new WindowLimbCost(limb, weights, state.limb_frames[i]));
-      blocks.assign({solution.offset[i].data()});
+          new WindowLimbCost(limb_, options_.weights, state.limb_frames[f - solution.first]));
+      blocks.assign({solution.offset[f - solution.first].data()});
       cost->AddParameterBlock(3);
-      for (int s = 0; s < slots; ++s) {
+      for (int s = 0; s < owned; ++s) {
         cost->AddParameterBlock(4);
-        blocks.push_back(rotation_block(i, s));
+        blocks.push_back(solution.slot(f, s, owned).coeffs().data());
       }
-      cost->SetNumResiduals(limb.residual_count());
+      cost->SetNumResiduals(limb_.residual_count());
       problem.AddResidualBlock(cost, nullptr, blocks);
-      for (int s = 0; s < slots; ++s) {
-        problem.SetManifold(rotation_block(i, s), &state.manifold);
-        if (s >= limb.owned) problem.SetParameterBlockConstant(rotation_block(i, s));
-      }
+      for (int s = 0; s < owned; ++s) problem.SetManifold(solution.slot(f, s, owned).coeffs().data(), &state.manifold);
     }
-    for (int i = 1; i + 1 < count; ++i) {
-      const int f = solution.first + i;
+  }
+
+  // The second differences over the window's inner frames (refine.h), through the Cauchy losses.
+  void add_smoothness(ceres::Problem& problem, WindowSolution& solution, State& state) const {
+    const RefineWeights& weights = options_.weights;
+    const Clip& reference = refinement_.reference;
+    const double fps_squared = reference.fps * reference.fps;
+    const int owned = limb_.owned;
+    for (int f = solution.first + 1; f + 1 < solution.end; ++f) {
       if (weights.smoothness > 0) {
-        for (int s = 0; s < limb.owned; ++s) {
-          const int joint = model.unknown_joints[limb.slots[s]];
-          const Clip& reference = refinement.reference;
+        for (int s = 0; s < owned; ++s) {
+          const int joint = refinement_.model.unknown_joints[limb_.slots[s]];
           const std::array<Eigen::Quaterniond, 3> around = {reference.rotation(f - 1, joint), reference.rotation(f, joint),
                                                             reference.rotation(f + 1, joint)};
           problem.AddResidualBlock(CorrectionAcceleration::Create(around, weights.smoothness * fps_squared), &state.rotation_jump,
-                                   rotation_block(i - 1, s), rotation_block(i, s), rotation_block(i + 1, s));
+                                   solution.slot(f - 1, s, owned).coeffs().data(), solution.slot(f, s, owned).coeffs().data(),
+                                   solution.slot(f + 1, s, owned).coeffs().data());
         }
       }
       if (weights.pelvis_smoothness > 0) {
-        const double weight = model.length_scale * weights.pelvis_smoothness * fps_squared;
+        const double weight = refinement_.model.length_scale * weights.pelvis_smoothness * fps_squared;
+        const int i = f - solution.first;
         problem.AddResidualBlock(PelvisAcceleration::Create(weight), &state.pelvis_jump, solution.offset[i - 1].data(),
                                  solution.offset[i].data(), solution.offset[i + 1].data());
       }
     }
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver_options, &problem, &summary);
-    iterations[window] = static_cast<long>(summary.iterations.size());
-  };
-  for_each_window(window_count, options.threads, make_state, solve);
+  }
 
-  // Kept frames, cross-faded with the neighbouring window within `margin` frames of a boundary.
-  const auto write = [&](int window, State& state) {
+  // The window's kept frames, cross-faded with the neighbouring window within `margin` frames of
+  // a boundary: weight 1 - smoothstep(x) of the previous window, smoothstep(x) of the next, x
+  // running over the 2 margin frames the two share.
+  void write(int window, State& state, Clip& out) const {
     const auto [kept_first, kept_end] = kept_range(window);
+    const int margin = options_.window_margin;
+    const int owned = limb_.owned;
     for (int f = kept_first; f < kept_end; ++f) {
       int other = -1;
       double weight = 0;  // of the other window
       if (margin > 0 && f < kept_first + margin && window > 0) {
         other = window - 1;
         weight = 1 - smoothstep((f - (kept_first - margin) + 0.5) / (2.0 * margin));
-      } else if (margin > 0 && f >= kept_end - margin && window + 1 < window_count) {
+      } else if (margin > 0 && f >= kept_end - margin && window + 1 < window_count_) {
         other = window + 1;
         weight = smoothstep((f - (kept_end - margin) + 0.5) / (2.0 * margin));
       }
-      const WindowSolution& own = solutions[window];
+      const WindowSolution& own = solutions_[window];
       balanced_pose(f, state.pose);
-      for (int s = 0; s < slots; ++s) {
-        Eigen::Quaterniond q = own.rotation[std::size_t(f - own.first) * slots + s];
+      for (int s = 0; s < owned; ++s) {
+        Eigen::Quaterniond q = own.slot(f, s, owned);
         if (other >= 0) {
-          const WindowSolution& theirs = solutions[other];
-          Eigen::Quaterniond r = theirs.rotation[std::size_t(f - theirs.first) * slots + s];
+          Eigen::Quaterniond r = solutions_[other].slot(f, s, owned);
           if (r.dot(q) < 0) r.coeffs() = -r.coeffs();
           q.coeffs() = (1 - weight) * q.coeffs() + weight * r.coeffs();
         }
-        state.pose.rotation[limb.slots[s]] = q.normalized();
+        state.pose.rotation[limb_.slots[s]] = q.normalized();
       }
       state.pose.pelvis_offset = own.offset[f - own.first];
       if (other >= 0) {
-        const WindowSolution& theirs = solutions[other];
+        const WindowSolution& theirs = solutions_[other];
         state.pose.pelvis_offset = (1 - weight) * state.pose.pelvis_offset + weight * theirs.offset[f - theirs.first];
       }
       state.builder.load(f);
-      state.builder.write(state.pose, refinement.plan, out);
+      state.builder.write(state.pose, refinement_.plan, out);
     }
-  };
-  for_each_window(window_count, options.threads, make_state, write);
-  long total = 0;
-  for (long count : iterations) total += count;
-  return total;
+  }
+
+  const Refinement& refinement_;
+  const RefineOptions& options_;
+  const Limb& limb_;
+  const int frames_;
+  const int window_count_;
+  ceres::Solver::Options solver_options_;
+  std::vector<WindowSolution> solutions_;
+  std::vector<long> iterations_;
+};
+
+// The accurate pass over the limb that moves the pelvis (none: nothing to do); sets the window
+// count and returns the solver iterations.
+long accurate_pass(const Refinement& refinement, Clip& out, int& window_count) {
+  const RefineModel& model = refinement.model;
+  const auto lower = std::find_if(model.limbs.begin(), model.limbs.end(), [](const Limb& limb) { return limb.moves_pelvis; });
+  const int size = refinement.options.window_frames;
+  window_count = (refinement.frames() + size - 1) / size;
+  if (lower == model.limbs.end()) return 0;
+  AccuratePass pass(refinement, *lower);
+  return pass.run(out);
 }
 
 // Each joint's quaternion sign made continuous along the clip (the first frame with w >= 0).

@@ -11,9 +11,10 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <optional>
+#include <span>
 #include <stdexcept>
 
-#include "retarget/geometry.h"
 
 namespace odyssey::retarget::refinement {
 
@@ -33,36 +34,10 @@ int limb_group(int canonical_joint) {
 
 using Mask = std::uint64_t;  // a set of unknowns (a body has at most 21)
 
-// A residual before it is given to a limb: what it reads, and the unknowns it depends on.
-struct PendingTerm {
-  enum class Kind { direction, effector, foot } kind;
-  int index;                // into the matching list below
-  std::vector<int> joints;  // target joints it reads positions or rotations of
-  Mask mask;
-};
-
-}  // namespace
-
-int Limb::residual_count() const {
-  int count = 3 * static_cast<int>(directions.size() + effectors.size()) + 3 * owned + (moves_pelvis ? 3 : 0);
-  for (const FootTerm& foot : feet) count += 3 + static_cast<int>(foot.nodes.size());
-  return count;
-}
-
-RefineModel build_refine_model(const RetargetResult& result) {
-  const RetargetRig& rig = result.rig;
+// Placements, as the transfer decides them (above), with the root above the pelvis.
+void decide_placements(const RetargetRig& rig, const std::vector<RigidTransform<double>>& rest, RefineModel& model) {
   const Skeleton& target = rig.target;
   const int n = target.joint_count();
-  const std::vector<RigidTransform<double>> rest = target.rest_world();
-  RefineModel model;
-  model.scale = rig.scale;
-  model.length_scale = kReferenceHeight / rig.target_height;
-  model.pelvis = rig.target_joint(canonical::pelvis);
-  model.source_pelvis = rig.source_joint(canonical::pelvis);
-  model.root = model.pelvis;
-  while (target.parent(model.root) >= 0) model.root = target.parent(model.root);
-
-  // Placements, as the transfer decides them.
   model.placement.assign(n, Placement::child);
   model.anchor.assign(n, -1);
   model.chain_end_offset.assign(n, Eigen::Vector3d::Zero());
@@ -85,11 +60,14 @@ RefineModel build_refine_model(const RetargetResult& result) {
   }
   model.placement[model.root] = Placement::root;
   model.anchor[model.root] = -1;
-  model.feet = result.target_feet.sides;
-  for (const RigidTransform<double>& joint : rest) model.rest_rotation.push_back(Eigen::Quaterniond(joint.rotation).normalized());
-  const auto from_of = [&](int j) { return model.placement[j] == Placement::child ? target.parent(j) : model.anchor[j]; };
+}
 
-  // Order: depth-first over (parent, anchor); the transfer has already refused cycles.
+// The placement tree: every joint hung from its parent (child) or its anchor (the others; none for
+// the root), in an order that places a joint after both its parent and its anchor (depth-first
+// over the two; the transfer has already refused cycles).
+KinematicModel placement_tree(const RefineModel& model, const Skeleton& target) {
+  const int n = target.joint_count();
+  std::vector<int> order;
   std::vector<std::uint8_t> placed(n, 0);
   for (int start = 0; start < n; ++start) {
     std::vector<int> stack{start};
@@ -109,13 +87,25 @@ RefineModel build_refine_model(const RetargetResult& result) {
       }
       if (!ready) continue;
       placed[j] = 1;
-      model.order.push_back(j);
+      order.push_back(j);
       stack.pop_back();
     }
   }
+  std::vector<int> hung_from(n);
+  std::vector<std::uint8_t> rotation_in_world(n);
+  for (int j = 0; j < n; ++j) {
+    const Placement kind = model.placement[j];
+    hung_from[j] = kind == Placement::child ? target.parent(j) : model.anchor[j];
+    rotation_in_world[j] = kind == Placement::attached || kind == Placement::chain_end;
+  }
+  return KinematicModel(std::move(hung_from), {}, std::move(order), std::move(rotation_in_world));
+}
 
-  // Unknowns: the start joints of the body's chain bones below the pelvis.
-  model.unknown_of.assign(n, -1);
+// The unknowns (refine.h): the start joints of the body's chain bones below the pelvis, placed
+// as children. Returns the limb group of each.
+std::vector<int> choose_unknowns(const RetargetRig& rig, RefineModel& model) {
+  const Skeleton& target = rig.target;
+  model.unknown_of.assign(target.joint_count(), -1);
   for (const Segment& segment : rig.segments) {
     const int c = segment.canonical_start;
     const int j = segment.target_start;
@@ -131,410 +121,494 @@ RefineModel build_refine_model(const RetargetResult& result) {
     model.unknown_of[j] = static_cast<int>(u);
     group_of_unknown.push_back(limb_group(rig.target_map.canonical_of(j)));
   }
+  return group_of_unknown;
+}
 
-  // Which joints forward kinematics from the pelvis reaches, and the unknowns their position and
-  // rotation depend on.
-  std::vector<std::uint8_t> reachable(n, 0);
-  std::vector<Mask> position_mask(n, 0), rotation_mask(n, 0);
-  reachable[model.pelvis] = 1;
-  for (int j : model.order) {
-    const Placement kind = model.placement[j];
-    if (j == model.pelvis || kind == Placement::root) continue;
-    const int from = from_of(j);
-    if (from < 0 || !reachable[from]) continue;
-    reachable[j] = 1;
-    position_mask[j] = position_mask[from] | rotation_mask[from];
-    if (kind == Placement::child) {
-      rotation_mask[j] = rotation_mask[from] | (model.unknown_of[j] >= 0 ? Mask(1) << model.unknown_of[j] : 0);
-    } else if (kind == Placement::rigid) {
-      rotation_mask[j] = rotation_mask[from];
+// Which joints the placement tree reaches from the pelvis, and the unknowns their position and
+// rotation depend on: a joint's position depends on what its parent's position and rotation do,
+// its rotation on its parent's (unless held in world) and on its own unknown.
+struct Dependencies {
+  std::vector<std::uint8_t> reachable;
+  std::vector<Mask> position, rotation;
+
+  Dependencies(const RefineModel& model) {
+    const int n = model.kinematics.joint_count();
+    reachable.assign(n, 0);
+    position.assign(n, 0);
+    rotation.assign(n, 0);
+    reachable[model.pelvis] = 1;
+    for (int j : model.kinematics.order) {
+      const int from = model.kinematics.parents[j];
+      if (j == model.pelvis || from < 0 || !reachable[from]) continue;
+      reachable[j] = 1;
+      position[j] = position[from] | rotation[from];
+      if (model.placement[j] == Placement::child) {
+        rotation[j] = rotation[from] | (model.unknown_of[j] >= 0 ? Mask(1) << model.unknown_of[j] : 0);
+      } else if (model.placement[j] == Placement::rigid) {
+        rotation[j] = rotation[from];
+      }
     }
   }
-  const auto all_reachable = [&](const std::vector<int>& joints) {
-    return std::all_of(joints.begin(), joints.end(), [&](int j) { return reachable[j] && j != model.pelvis; });
-  };
+  // Whether a limb can read every one of `joints` (the pelvis itself is the limb's base).
+  bool all_reachable(const std::vector<int>& joints, int pelvis) const {
+    return std::all_of(joints.begin(), joints.end(), [&](int j) { return reachable[j] && j != pelvis; });
+  }
+};
 
-  // Residuals.
-  std::vector<DirectionTerm> directions;
-  std::vector<EffectorTerm> effectors;
-  std::vector<FootTerm> feet;
+// A residual before it is given to a limb: the term (of its kind; node indices still unset), the
+// target joints it reads positions or rotations of, and the unknowns it depends on.
+struct PendingTerm {
+  enum class Kind { direction, effector, foot } kind;
+  DirectionTerm direction;
+  EffectorTerm effector;
+  FootTerm foot;
+  std::vector<int> joints;
+  Mask mask = 0;
+};
+
+// The residuals (refine.h) that depend on at least one unknown: chain bone directions (and
+// spine continuations), end effectors, feet.
+std::vector<PendingTerm> residual_terms(const RetargetRig& rig, const RefineModel& model,
+                                        const std::vector<RigidTransform<double>>& rest, const Dependencies& depends) {
   std::vector<PendingTerm> pending;
   for (const Segment& segment : rig.segments) {
     if (segment.degenerate || (segment.branch && !segment.spine_continuation)) continue;
-    DirectionTerm term;
-    term.source_from = segment.source_start;
-    term.source_to = segment.source_end;
+    PendingTerm term{PendingTerm::Kind::direction, {}, {}, {}, {segment.target_start}, 0};
+    term.direction.source_from = segment.source_start;
+    term.direction.source_to = segment.source_end;
     const int a = segment.target_start;
-    PendingTerm entry{PendingTerm::Kind::direction, static_cast<int>(directions.size()), {a}, 0};
     if (segment.target_attached) {
-      entry.joints.push_back(segment.target_end);
-      if (!all_reachable(entry.joints)) continue;
-      entry.mask = position_mask[a] | position_mask[segment.target_end];
+      term.joints.push_back(segment.target_end);
+      if (!depends.all_reachable(term.joints, model.pelvis)) continue;
+      term.mask = depends.position[a] | depends.position[segment.target_end];
     } else {
-      if (!all_reachable(entry.joints)) continue;
-      term.rest_chord = (rest[a].rotation.transpose() * (rest[segment.target_end].translation - rest[a].translation)).normalized();
-      entry.mask = rotation_mask[a];
+      if (!depends.all_reachable(term.joints, model.pelvis)) continue;
+      term.direction.rest_chord =
+          (rest[a].rotation.transpose() * (rest[segment.target_end].translation - rest[a].translation)).normalized();
+      term.mask = depends.rotation[a];
     }
-    if (entry.mask == 0) continue;
-    directions.push_back(term);
-    pending.push_back(entry);
+    if (term.mask != 0) pending.push_back(std::move(term));
   }
   for (int c : {canonical::head, canonical::left_wrist, canonical::right_wrist, canonical::left_ankle, canonical::right_ankle}) {
     if (!rig.source_map.mapped(c) || !rig.target_map.mapped(c)) continue;
     const int j = rig.target_joint(c);
-    if (!all_reachable({j}) || position_mask[j] == 0) continue;
-    pending.push_back({PendingTerm::Kind::effector, static_cast<int>(effectors.size()), {j}, position_mask[j]});
-    effectors.push_back({-1, rig.source_joint(c)});
+    if (!depends.all_reachable({j}, model.pelvis) || depends.position[j] == 0) continue;
+    pending.push_back({PendingTerm::Kind::effector, {}, {-1, rig.source_joint(c)}, {}, {j}, depends.position[j]});
   }
   for (int side = 0; side < 2; ++side) {
     const Foot& foot = model.feet[side];
-    if (all_reachable(foot.joints)) {
-      Mask mask = 0;
-      for (int j : foot.joints) mask |= position_mask[j];
-      pending.push_back({PendingTerm::Kind::foot, static_cast<int>(feet.size()), foot.joints, mask});
-      feet.push_back({side, {}, foot.ground_heights});
+    if (!depends.all_reachable(foot.joints, model.pelvis)) continue;
+    Mask mask = 0;
+    for (int j : foot.joints) mask |= depends.position[j];
+    pending.push_back({PendingTerm::Kind::foot, {}, {}, {side, {}, foot.ground_heights}, foot.joints, mask});
+  }
+  return pending;
+}
+
+// The limb of one group: its unknowns (owned slots), the residuals that go to it (each to the last
+// limb in solve order among those owning an unknown it depends on; feet, which also depend on dp,
+// at least to the lower body), and the nodes they read. None when it has neither.
+std::optional<Limb> build_limb(int group, const RefineModel& model, const std::vector<int>& group_of_unknown,
+                               const std::vector<PendingTerm>& pending, const Dependencies& depends) {
+  Limb limb;
+  limb.name = kLimbNames[group];
+  limb.moves_pelvis = group == lower_body;
+  limb.length_scale = model.length_scale;
+  Mask owned_mask = 0;
+  for (std::size_t u = 0; u < model.unknown_joints.size(); ++u) {
+    if (group_of_unknown[u] == group) {
+      limb.slots.push_back(static_cast<int>(u));
+      owned_mask |= Mask(1) << u;
     }
   }
-
-  // Limbs: each residual goes to the last limb (in solve order) among those owning an unknown it
-  // depends on (feet, which also depend on dp, at least to the lower body).
-  for (int group = 0; group < group_count; ++group) {
-    Limb limb;
-    limb.name = kLimbNames[group];
-    limb.moves_pelvis = group == lower_body;
-    limb.length_scale = model.length_scale;
-    Mask owned_mask = 0;
+  limb.owned = static_cast<int>(limb.slots.size());
+  std::vector<const PendingTerm*> terms;
+  for (const PendingTerm& term : pending) {
+    int last = lower_body;
     for (std::size_t u = 0; u < model.unknown_joints.size(); ++u) {
-      if (group_of_unknown[u] == group) {
-        limb.slots.push_back(static_cast<int>(u));
-        owned_mask |= Mask(1) << u;
-      }
+      if (term.mask & (Mask(1) << u)) last = std::max(last, group_of_unknown[u]);
     }
-    limb.owned = static_cast<int>(limb.slots.size());
-    std::vector<const PendingTerm*> terms;
-    for (const PendingTerm& term : pending) {
-      int last = lower_body;
-      for (std::size_t u = 0; u < model.unknown_joints.size(); ++u) {
-        if (term.mask & (Mask(1) << u)) last = std::max(last, group_of_unknown[u]);
-      }
-      if (last == group) terms.push_back(&term);
-    }
-    if (terms.empty() && limb.owned == 0) continue;
+    if (last == group) terms.push_back(&term);
+  }
+  if (terms.empty() && limb.owned == 0) return std::nullopt;
 
-    // Nodes: every joint on the way from the pelvis to what the residuals and slots read.
-    std::vector<std::uint8_t> needed(n, 0);
-    const auto need = [&](int j) {
-      for (; j >= 0 && j != model.pelvis && !needed[j]; j = from_of(j)) needed[j] = 1;
+  // Nodes: every joint on the way from the pelvis to what the residuals and slots read.
+  const KinematicModel& tree = model.kinematics;
+  const int n = tree.joint_count();
+  std::vector<std::uint8_t> needed(n, 0);
+  const auto need = [&](int j) {
+    for (; j >= 0 && j != model.pelvis && !needed[j]; j = tree.parents[j]) needed[j] = 1;
+  };
+  for (const PendingTerm* term : terms) {
+    for (int j : term->joints) need(j);
+  }
+  for (int s = 0; s < limb.owned; ++s) need(model.unknown_joints[limb.slots[s]]);
+  std::vector<int> node_of(n, -1);
+  std::vector<int> node_parents;
+  std::vector<std::uint8_t> rotation_in_world;
+  for (int j : tree.order) {
+    if (!needed[j]) continue;
+    const int node = static_cast<int>(limb.nodes.size());
+    node_of[j] = node;
+    LimbNode entry{j, -1};
+    const int u = model.unknown_of[j];
+    if (model.placement[j] == Placement::child && u >= 0) {
+      const auto slot = std::find(limb.slots.begin(), limb.slots.end(), u);
+      entry.slot = static_cast<int>(slot - limb.slots.begin());
+      if (slot == limb.slots.end()) limb.slots.push_back(u);
+    }
+    limb.nodes.push_back(entry);
+    node_parents.push_back(tree.parents[j] == model.pelvis ? -1 : node_of[tree.parents[j]]);
+    rotation_in_world.push_back(tree.rotation_in_world[j]);
+    const bool moving = limb.moves_pelvis || ((depends.position[j] | depends.rotation[j]) & owned_mask) != 0;
+    (moving ? limb.moving_nodes : limb.fixed_nodes).push_back(node);
+  }
+  const std::size_t nodes = limb.nodes.size();
+  limb.kinematics = KinematicModel(std::move(node_parents), {}, {}, std::move(rotation_in_world));
+  limb.slot_nodes.resize(limb.slots.size());
+  for (std::size_t node = 0; node < nodes; ++node) {
+    if (limb.nodes[node].slot >= 0) limb.slot_nodes[limb.nodes[node].slot] = static_cast<int>(node);
+  }
+
+  for (const PendingTerm* term : terms) {
+    switch (term->kind) {
+      case PendingTerm::Kind::direction: {
+        DirectionTerm direction = term->direction;
+        direction.from = node_of[term->joints[0]];
+        direction.to = term->joints.size() > 1 ? node_of[term->joints[1]] : -1;
+        limb.directions.push_back(direction);
+        break;
+      }
+      case PendingTerm::Kind::effector: {
+        EffectorTerm effector = term->effector;
+        effector.node = node_of[term->joints[0]];
+        limb.effectors.push_back(effector);
+        break;
+      }
+      case PendingTerm::Kind::foot: {
+        FootTerm foot = term->foot;
+        for (int j : term->joints) foot.nodes.push_back(node_of[j]);
+        limb.feet.push_back(foot);
+        break;
+      }
+    }
+  }
+  return limb;
+}
+
+// A foot's points (contacts.h: its joints, then a one-joint foot's toe) frame by frame:
+// points[k][frame].
+using FootPaths = std::vector<std::vector<Eigen::Vector3d>>;
+
+// The point of a foot lowest above its own ground height in frame f: the one that supports it.
+int support_point(const Foot& foot, const FootPaths& points, int f) {
+  int lowest = 0;
+  for (int k = 1; k < foot.point_count(); ++k) {
+    if (points[k][f].z() - foot.point_ground_height(k) < points[lowest][f].z() - foot.point_ground_height(lowest)) lowest = k;
+  }
+  return lowest;
+}
+
+// The reference's pelvis and both feet's points, frame by frame.
+struct ReferencePaths {
+  std::vector<Eigen::Vector3d> pelvis;
+  std::array<FootPaths, 2> feet;
+};
+
+ReferencePaths reference_paths(const RefineModel& model, FrameBuilder& builder, int frames) {
+  ReferencePaths paths;
+  paths.pelvis.resize(frames);
+  for (int side = 0; side < 2; ++side) paths.feet[side].assign(model.feet[side].point_count(), std::vector<Eigen::Vector3d>(frames));
+  for (int f = 0; f < frames; ++f) {
+    builder.load(f);
+    paths.pelvis[f] = builder.reference_position(model.pelvis);
+    for (int side = 0; side < 2; ++side) {
+      const Foot& foot = model.feet[side];
+      FootPaths& points = paths.feet[side];
+      for (std::size_t k = 0; k < foot.joints.size(); ++k) points[k][f] = builder.reference_position(foot.joints[k]);
+      if (foot.has_toe) points.back()[f] = builder.reference_position(foot.joints[0]) + builder.reference_rotation(foot.joints[0]) * foot.toe;
+    }
+  }
+  return paths;
+}
+
+// The stride factor k: moving the body by (k - 1) times the pelvis's horizontal travel changes a
+// planted foot's step v_f by (k - 1) v_p, so k - 1 = -sum v_f . v_p / (sum |v_p|^2 + ridge) over
+// the steps with the foot planted at both ends; the ridge, worth the pelvis moving 5 cm/s (for a
+// 1.7 m character) in every such step, keeps k at 1 when the body hardly travels. k is kept
+// within [0.5, 2].
+double fit_stride(const RefineModel& model, const ReferencePaths& paths, const FootContacts& contacts, double fps) {
+  const int frames = contacts.frame_count();
+  double along = 0, travel = 0;
+  long steps = 0;
+  for (int side = 0; side < 2; ++side) {
+    const std::vector<std::uint8_t>& planted = contacts.planted[side];
+    for (int f = 0; f + 1 < frames; ++f) {
+      if (!planted[f] || !planted[f + 1]) continue;
+      const int k = support_point(model.feet[side], paths.feet[side], f);
+      const Eigen::Vector2d foot_step = (paths.feet[side][k][f + 1] - paths.feet[side][k][f]).head<2>();
+      const Eigen::Vector2d pelvis_step = (paths.pelvis[f + 1] - paths.pelvis[f]).head<2>();
+      along += foot_step.dot(pelvis_step);
+      travel += pelvis_step.squaredNorm();
+      ++steps;
+    }
+  }
+  const double ridge_step = 0.05 / model.length_scale / fps;
+  return steps > 0 ? std::clamp(1.0 - along / (travel + steps * ridge_step * ridge_step), 0.5, 2.0) : 1.0;
+}
+
+// The height h: the median, over the planted frames, of how far the reference's support point is
+// above the floor (the transfer's floor offset was fitted to where it placed the feet; an IK foot
+// at the end of its shin may stand elsewhere). 0 without a planted frame.
+double planted_height(const RefineModel& model, const ReferencePaths& paths, const FootContacts& contacts) {
+  std::vector<double> heights;
+  for (int side = 0; side < 2; ++side) {
+    for (int f = 0; f < contacts.frame_count(); ++f) {
+      if (!contacts.planted[side][f]) continue;
+      const int k = support_point(model.feet[side], paths.feet[side], f);
+      heights.push_back(model.feet[side].point_ground_height(k) - paths.feet[side][k][f].z());
+    }
+  }
+  if (heights.empty()) return 0;
+  const auto middle = heights.begin() + static_cast<std::ptrdiff_t>(heights.size() / 2);
+  std::nth_element(heights.begin(), middle, heights.end());
+  return *middle;
+}
+
+// Maximal runs of planted frames, [first, last].
+std::vector<std::pair<int, int>> contact_runs(const std::vector<std::uint8_t>& planted) {
+  std::vector<std::pair<int, int>> runs;
+  for (int f = 0; f < static_cast<int>(planted.size()); ++f) {
+    if (!planted[f]) continue;
+    if (!runs.empty() && runs.back().second == f - 1) {
+      runs.back().second = f;
+    } else {
+      runs.push_back({f, f});
+    }
+  }
+  return runs;
+}
+
+// One foot's plan (FootPlan) in its contacts, from its points on the reference moved by dp_plan
+// (`at`): the support point held at its anchor, on the floor. Returns o(t), the correction that
+// takes it there (zero outside contacts).
+std::vector<Eigen::Vector3d> hold_contacts(const Foot& foot, const FootPaths& at, const std::vector<std::pair<int, int>>& runs,
+                                           const std::vector<Eigen::Vector3d>& pelvis_offset, FootPlan& plan) {
+  const auto support = [&](int f) { return support_point(foot, at, f); };
+  std::vector<Eigen::Vector3d> correction(pelvis_offset.size(), Eigen::Vector3d::Zero());
+  for (const auto& [first, last] : runs) {
+    // The anchor: the first support point's mean horizontal position over the frames it supports;
+    // when the support passes to another point, the anchor passes with it by their offset.
+    int k = support(first);
+    int phase_end = first;
+    while (phase_end <= last && support(phase_end) == k) ++phase_end;
+    Eigen::Vector2d anchor = Eigen::Vector2d::Zero();
+    for (int f = first; f < phase_end; ++f) anchor += at[k][f].head<2>();
+    anchor /= phase_end - first;
+    for (int f = first; f <= last; ++f) {
+      const int now = support(f);
+      if (now != k) {
+        anchor += (at[now][f] - at[k][f]).head<2>();
+        k = now;
+      }
+      correction[f] = Eigen::Vector3d(anchor.x(), anchor.y(), foot.point_ground_height(k)) - at[k][f];
+      // The toe is rigid with joints[0] in the reference's rotation, which the solver keeps: the
+      // joint moved by the toe's correction puts the toe on its anchor.
+      plan.joint[f] = static_cast<std::int8_t>(std::min<int>(k, static_cast<int>(foot.joints.size()) - 1));
+      plan.offset[f] = pelvis_offset[f] + correction[f];
+      plan.follow[f] = 0;
+      if (!plan.flat.empty()) plan.flat[f] = 1;
+    }
+  }
+  return correction;
+}
+
+// Around contacts the correction fades out and in over `blend_frames` (smoothstep), or passes
+// from one contact to the next across a gap shorter than two fades.
+void fade_around_contacts(const std::vector<std::pair<int, int>>& runs, const std::vector<Eigen::Vector3d>& correction,
+                          const std::vector<Eigen::Vector3d>& pelvis_offset, int blend_frames, FootPlan& plan) {
+  const int frames = static_cast<int>(pelvis_offset.size());
+  for (std::size_t r = 0; r <= runs.size(); ++r) {
+    const bool has_before = r > 0, has_after = r < runs.size();
+    const int before = has_before ? runs[r - 1].second : -1;  // last frame of the previous contact
+    const int after = has_after ? runs[r].first : frames;     // first frame of the next contact
+    if (has_before && has_after && after - before - 1 <= 2 * blend_frames) {
+      for (int f = before + 1; f < after; ++f) {
+        const double x = static_cast<double>(f - before) / (after - before);
+        const double u = smoothstep(x);
+        plan.joint[f] = x < 0.5 ? plan.joint[before] : plan.joint[after];
+        plan.offset[f] = pelvis_offset[f] + (1 - u) * correction[before] + u * correction[after];
+        plan.follow[f] = 0;
+        if (!plan.flat.empty()) plan.flat[f] = 1;
+      }
+      continue;
+    }
+    const auto fade = [&](int f, int boundary, int distance) {
+      const double u = smoothstep(1.0 - static_cast<double>(distance) / (blend_frames + 1));
+      plan.joint[f] = plan.joint[boundary];
+      plan.offset[f] = u * (pelvis_offset[f] + correction[boundary]);
+      plan.follow[f] = 1 - u;
+      if (!plan.flat.empty()) plan.flat[f] = u;
     };
-    for (const PendingTerm* term : terms) {
-      for (int j : term->joints) need(j);
+    if (has_before) {
+      for (int f = before + 1; f <= std::min(before + blend_frames, after - 1); ++f) fade(f, before, f - before);
     }
-    for (int s = 0; s < limb.owned; ++s) need(model.unknown_joints[limb.slots[s]]);
-    std::vector<int> node_of(n, -1);
-    for (int j : model.order) {
-      if (!needed[j]) continue;
-      node_of[j] = static_cast<int>(limb.nodes.size());
-      LimbNode node;
-      node.joint = j;
-      node.kind = model.placement[j];
-      const int from = from_of(j);
-      node.from = from == model.pelvis ? -1 : node_of[from];
-      const int u = model.unknown_of[j];
-      if (node.kind == Placement::child && u >= 0) {
-        const auto slot = std::find(limb.slots.begin(), limb.slots.end(), u);
-        node.slot = static_cast<int>(slot - limb.slots.begin());
-        if (slot == limb.slots.end()) limb.slots.push_back(u);
-      }
-      limb.nodes.push_back(node);
-      const Mask mask = position_mask[j] | rotation_mask[j];
-      limb.variable.push_back(limb.moves_pelvis || (mask & owned_mask) != 0);
+    if (has_after) {
+      for (int f = std::max(after - blend_frames, before + 1); f < after; ++f) fade(f, after, after - f);
     }
-    for (const PendingTerm* term : terms) {
-      switch (term->kind) {
-        case PendingTerm::Kind::direction: {
-          DirectionTerm direction = directions[term->index];
-          direction.from = node_of[term->joints[0]];
-          direction.to = term->joints.size() > 1 ? node_of[term->joints[1]] : -1;
-          limb.directions.push_back(direction);
-          break;
-        }
-        case PendingTerm::Kind::effector: {
-          EffectorTerm effector = effectors[term->index];
-          effector.node = node_of[term->joints[0]];
-          limb.effectors.push_back(effector);
-          break;
-        }
-        case PendingTerm::Kind::foot: {
-          FootTerm foot = feet[term->index];
-          for (int j : term->joints) foot.nodes.push_back(node_of[j]);
-          limb.feet.push_back(foot);
-          break;
-        }
-      }
-    }
-    model.limbs.push_back(std::move(limb));
+  }
+}
+
+}  // namespace
+
+int Limb::residual_count() const {
+  int count = 3 * static_cast<int>(directions.size() + effectors.size()) + 3 * owned + (moves_pelvis ? 3 : 0);
+  for (const FootTerm& foot : feet) count += 3 + static_cast<int>(foot.nodes.size());
+  return count;
+}
+
+RefineModel build_refine_model(const RetargetResult& result) {
+  const RetargetRig& rig = result.rig;
+  const Skeleton& target = rig.target;
+  const std::vector<RigidTransform<double>> rest = target.rest_world();
+  RefineModel model;
+  model.scale = rig.scale;
+  model.length_scale = kReferenceHeight / rig.target_height;
+  model.pelvis = rig.target_joint(canonical::pelvis);
+  model.source_pelvis = rig.source_joint(canonical::pelvis);
+  model.root = model.pelvis;
+  while (target.parent(model.root) >= 0) model.root = target.parent(model.root);
+  model.feet = result.target_feet.sides;
+  for (const RigidTransform<double>& joint : rest) model.rest_rotation.push_back(Eigen::Quaterniond(joint.rotation).normalized());
+
+  decide_placements(rig, rest, model);
+  model.kinematics = placement_tree(model, target);
+  const std::vector<int> group_of_unknown = choose_unknowns(rig, model);
+  const Dependencies depends(model);
+  const std::vector<PendingTerm> pending = residual_terms(rig, model, rest, depends);
+  for (int group = 0; group < group_count; ++group) {
+    if (std::optional<Limb> limb = build_limb(group, model, group_of_unknown, pending, depends)) model.limbs.push_back(std::move(*limb));
   }
   return model;
 }
 
 MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const FootContacts& contacts, int blend_frames,
-                       bool fit_stride) {
+                       bool fit_stride_factor) {
   const int frames = contacts.frame_count();
-  // The pelvis in the reference pose, and the foot's points (contacts.h: its joints, then a
-  // one-joint foot's toe): position[side][k][frame].
-  std::vector<Eigen::Vector3d> pelvis(frames);
-  std::array<std::vector<std::vector<Eigen::Vector3d>>, 2> position;
-  for (int side = 0; side < 2; ++side) position[side].assign(model.feet[side].point_count(), std::vector<Eigen::Vector3d>(frames));
-  for (int f = 0; f < frames; ++f) {
-    builder.load(f);
-    pelvis[f] = builder.reference_position(model.pelvis);
-    for (int side = 0; side < 2; ++side) {
-      const Foot& foot = model.feet[side];
-      for (std::size_t k = 0; k < foot.joints.size(); ++k) position[side][k][f] = builder.reference_position(foot.joints[k]);
-      if (foot.has_toe) {
-        position[side].back()[f] = builder.reference_position(foot.joints[0]) + builder.reference_rotation(foot.joints[0]) * foot.toe;
-      }
-    }
-  }
-  const auto support = [&](int side, int f) {
-    const Foot& foot = model.feet[side];
-    int lowest = 0;
-    for (int k = 1; k < foot.point_count(); ++k) {
-      const auto& at = position[side];
-      if (at[k][f].z() - foot.point_ground_height(k) < at[lowest][f].z() - foot.point_ground_height(lowest)) lowest = k;
-    }
-    return lowest;
-  };
-
-  // The stride: moving the body by (k - 1) times the pelvis's horizontal travel changes a planted
-  // foot's step v_f by (k - 1) v_p, so k - 1 = -sum v_f . v_p / (sum |v_p|^2 + ridge) over the
-  // steps with the foot planted at both ends; the ridge, worth the pelvis moving 5 cm/s (for a
-  // 1.7 m character) in every such step, keeps k at 1 when the body hardly travels. k is kept
-  // within [0.5, 2].
+  ReferencePaths paths = reference_paths(model, builder, frames);
   MotionPlan plan;
-  if (fit_stride) {
-    double along = 0, travel = 0;
-    long steps = 0;
-    for (int side = 0; side < 2; ++side) {
-      const std::vector<std::uint8_t>& planted = contacts.planted[side];
-      for (int f = 0; f + 1 < frames; ++f) {
-        if (!planted[f] || !planted[f + 1]) continue;
-        const int k = support(side, f);
-        const Eigen::Vector2d foot_step = (position[side][k][f + 1] - position[side][k][f]).head<2>();
-        const Eigen::Vector2d pelvis_step = (pelvis[f + 1] - pelvis[f]).head<2>();
-        along += foot_step.dot(pelvis_step);
-        travel += pelvis_step.squaredNorm();
-        ++steps;
-      }
-    }
-    const double ridge_step = 0.05 / model.length_scale / builder.fps();
-    if (steps > 0) plan.stride = std::clamp(1.0 - along / (travel + steps * ridge_step * ridge_step), 0.5, 2.0);
-  }
-  // The height: the median, over the planted frames, of how far the reference's support joint is
-  // above the floor (the transfer's floor offset was fitted to where it placed the feet; an IK
-  // foot at the end of its shin may stand elsewhere).
-  std::vector<double> heights;
-  for (int side = 0; side < 2; ++side) {
-    for (int f = 0; f < frames; ++f) {
-      if (!contacts.planted[side][f]) continue;
-      const int k = support(side, f);
-      heights.push_back(model.feet[side].point_ground_height(k) - position[side][k][f].z());
-    }
-  }
-  if (!heights.empty()) {
-    const auto middle = heights.begin() + static_cast<std::ptrdiff_t>(heights.size() / 2);
-    std::nth_element(heights.begin(), middle, heights.end());
-    plan.height = *middle;
-  }
+  if (fit_stride_factor) plan.stride = fit_stride(model, paths, contacts, builder.fps());
+  plan.height = planted_height(model, paths, contacts);
   plan.pelvis_offset.resize(frames);
   for (int f = 0; f < frames; ++f) {
-    const Eigen::Vector2d travel = (plan.stride - 1.0) * (pelvis[f] - pelvis[0]).head<2>();
+    const Eigen::Vector2d travel = (plan.stride - 1.0) * (paths.pelvis[f] - paths.pelvis[0]).head<2>();
     plan.pelvis_offset[f] = Eigen::Vector3d(travel.x(), travel.y(), plan.height);
-    for (int side = 0; side < 2; ++side) {
-      for (auto& joint : position[side]) joint[f] += plan.pelvis_offset[f];
-    }
   }
-
-  // The feet. Anchors are found on the reference moved by dp_plan; o(t) is the correction from
-  // there, and offsets are stored from the unmoved reference (FootPlan).
+  // Anchors are found on the reference moved by dp_plan; o(t) is the correction from there, and
+  // offsets are stored from the unmoved reference (FootPlan).
   for (int side = 0; side < 2; ++side) {
     const Foot& foot = model.feet[side];
-    const auto& at = position[side];
+    FootPaths& at = paths.feet[side];
+    for (auto& point : at) {
+      for (int f = 0; f < frames; ++f) point[f] += plan.pelvis_offset[f];
+    }
     FootPlan& feet = plan.feet[side];
     feet.joint.assign(frames, -1);
     feet.offset.assign(frames, Eigen::Vector3d::Zero());
     feet.follow.assign(frames, 1.0);
     if (foot.joints.size() == 1 && !foot.has_toe) feet.flat.assign(frames, 0.0);
-    std::vector<Eigen::Vector3d> correction(frames, Eigen::Vector3d::Zero());  // o(t) in contacts
-
-    // Contacts: the support joint held at its anchor, on the floor.
-    const std::vector<std::uint8_t>& planted = contacts.planted[side];
-    std::vector<std::pair<int, int>> runs;  // [first, last]
-    for (int f = 0; f < frames; ++f) {
-      if (!planted[f]) continue;
-      if (!runs.empty() && runs.back().second == f - 1) {
-        runs.back().second = f;
-      } else {
-        runs.push_back({f, f});
-      }
-    }
-    for (const auto& [first, last] : runs) {
-      int k = support(side, first);
-      int phase_end = first;
-      while (phase_end <= last && support(side, phase_end) == k) ++phase_end;
-      Eigen::Vector2d anchor = Eigen::Vector2d::Zero();
-      for (int f = first; f < phase_end; ++f) anchor += at[k][f].head<2>();
-      anchor /= phase_end - first;
-      for (int f = first; f <= last; ++f) {
-        const int now = support(side, f);
-        if (now != k) {
-          anchor += (at[now][f] - at[k][f]).head<2>();
-          k = now;
-        }
-        correction[f] = Eigen::Vector3d(anchor.x(), anchor.y(), foot.point_ground_height(k)) - at[k][f];
-        // The toe is rigid with joints[0] in the reference's rotation, which the solver keeps: the
-        // joint moved by the toe's correction puts the toe on its anchor.
-        feet.joint[f] = static_cast<std::int8_t>(std::min<int>(k, static_cast<int>(foot.joints.size()) - 1));
-        feet.offset[f] = plan.pelvis_offset[f] + correction[f];
-        feet.follow[f] = 0;
-        if (!feet.flat.empty()) feet.flat[f] = 1;
-      }
-    }
-
-    // Around contacts: the correction fades, or passes from one contact to the next.
-    for (std::size_t r = 0; r <= runs.size(); ++r) {
-      const bool has_before = r > 0, has_after = r < runs.size();
-      const int before = has_before ? runs[r - 1].second : -1;  // last frame of the previous contact
-      const int after = has_after ? runs[r].first : frames;     // first frame of the next contact
-      if (has_before && has_after && after - before - 1 <= 2 * blend_frames) {
-        for (int f = before + 1; f < after; ++f) {
-          const double x = static_cast<double>(f - before) / (after - before);
-          const double u = smoothstep(x);
-          feet.joint[f] = x < 0.5 ? feet.joint[before] : feet.joint[after];
-          feet.offset[f] = plan.pelvis_offset[f] + (1 - u) * correction[before] + u * correction[after];
-          feet.follow[f] = 0;
-          if (!feet.flat.empty()) feet.flat[f] = 1;
-        }
-        continue;
-      }
-      const auto fade = [&](int f, int boundary, int distance) {
-        const double u = smoothstep(1.0 - static_cast<double>(distance) / (blend_frames + 1));
-        feet.joint[f] = feet.joint[boundary];
-        feet.offset[f] = u * (plan.pelvis_offset[f] + correction[boundary]);
-        feet.follow[f] = 1 - u;
-        if (!feet.flat.empty()) feet.flat[f] = u;
-      };
-      if (has_before) {
-        for (int f = before + 1; f <= std::min(before + blend_frames, after - 1); ++f) fade(f, before, f - before);
-      }
-      if (has_after) {
-        for (int f = std::max(after - blend_frames, before + 1); f < after; ++f) fade(f, after, after - f);
-      }
-    }
+    const std::vector<std::pair<int, int>> runs = contact_runs(contacts.planted[side]);
+    const std::vector<Eigen::Vector3d> correction = hold_contacts(foot, at, runs, plan.pelvis_offset, feet);
+    fade_around_contacts(runs, correction, plan.pelvis_offset, blend_frames, feet);
   }
   return plan;
 }
 
 FrameBuilder::FrameBuilder(const RefineModel& model, const Clip& reference, const Clip& source, const Feet& source_feet)
-    : model_(model), reference_(reference), source_(source), levelling_(source_feet.levelling) {
-  const int n = reference.joint_count();
-  track_of_.assign(n, -1);
-  for (std::size_t t = 0; t < reference.translated_joints.size(); ++t) track_of_[reference.translated_joints[t]] = static_cast<int>(t);
-  local_rotation_.resize(n);
-  world_rotation_.resize(n);
-  local_translation_.resize(n);
-  world_position_.resize(n);
-  new_rotation_.resize(n);
-  new_position_.resize(n);
-  reference_placed_.resize(n);
-  reference_rotated_.resize(n);
-  flattened_.assign(n, 0);
-  source_track_of_.assign(source.joint_count(), -1);
-  for (std::size_t t = 0; t < source.translated_joints.size(); ++t) source_track_of_[source.translated_joints[t]] = static_cast<int>(t);
-  source_position_.resize(source.joint_count());
-  source_rotation_.resize(source.joint_count());
+    : model_(model),
+      reference_(reference),
+      source_(source),
+      reference_pose_(reference.skeleton.kinematics()),
+      source_pose_(source.skeleton.kinematics()),
+      reference_placed_(model.kinematics),
+      placed_(model.kinematics),
+      flattened_(reference.joint_count(), 0) {
+  source_pose_.base.rotation = source_feet.levelling;
 }
 
 void FrameBuilder::load(int frame) {
   frame_ = frame;
-  const Skeleton& skeleton = reference_.skeleton;
-  const std::size_t tracks = reference_.translated_joints.size();
-  for (int j = 0; j < skeleton.joint_count(); ++j) {
-    local_rotation_[j] = reference_.rotation(frame, j);
-    local_translation_[j] =
-        track_of_[j] >= 0 ? reference_.translations[std::size_t(frame) * tracks + track_of_[j]] : skeleton.rest_offsets()[j];
-    const int p = skeleton.parent(j);
-    world_rotation_[j] = p < 0 ? local_rotation_[j] : world_rotation_[p] * local_rotation_[j];
-    world_position_[j] = p < 0 ? local_translation_[j] : Eigen::Vector3d(world_position_[p] + world_rotation_[p] * local_translation_[j]);
+  reference_.world_pose(frame, reference_pose_);
+  source_.world_pose(frame, source_pose_);
+  place_locals();
+  forward_kinematics(model_.kinematics, reference_placed_);
+}
+
+// The placement tree's local transforms (above) read off the loaded reference: a child's local
+// transform; a rigid joint's transform relative to its anchor, X_ref(A)^-1 X_ref(j); an attached
+// joint's offset from its anchor in the anchor's frame, W_ref(A)^-1 (P_ref(j) - P_ref(A)), a chain
+// end's c_rest, both with their world rotation; the root's world transform.
+void FrameBuilder::place_locals() {
+  const std::vector<QuaternionTransform<double>>& world = reference_pose_.world;
+  for (int j = 0; j < reference_.joint_count(); ++j) {
+    QuaternionTransform<double>& local = reference_placed_.local[j];
+    const int a = model_.anchor[j];
+    switch (model_.placement[j]) {
+      case Placement::child:
+        local = reference_pose_.local[j];
+        break;
+      case Placement::root:
+        local = world[j];
+        break;
+      case Placement::rigid:
+      case Placement::attached: {
+        const Eigen::Quaterniond anchor_inverse = world[a].rotation.conjugate();
+        local.rotation = model_.placement[j] == Placement::rigid ? anchor_inverse * world[j].rotation : world[j].rotation;
+        local.translation = anchor_inverse * (world[j].translation - world[a].translation);
+        break;
+      }
+      case Placement::chain_end:
+        local.rotation = world[j].rotation;
+        local.translation = model_.chain_end_offset[j];
+        break;
+    }
   }
-  // The source in its levelled world (contacts.h).
-  const Skeleton& source_skeleton = source_.skeleton;
-  const std::size_t source_tracks = source_.translated_joints.size();
-  for (int j = 0; j < source_skeleton.joint_count(); ++j) {
-    const Eigen::Vector3d& step = source_track_of_[j] >= 0 ? source_.translations[std::size_t(frame) * source_tracks + source_track_of_[j]]
-                                                           : source_skeleton.rest_offsets()[j];
-    const int p = source_skeleton.parent(j);
-    const Eigen::Quaterniond& local = source_.rotation(frame, j);
-    source_rotation_[j] = p < 0 ? levelling_ * local : source_rotation_[p] * local;
-    source_position_[j] = p < 0 ? Eigen::Vector3d(levelling_ * step) : Eigen::Vector3d(source_position_[p] + source_rotation_[p] * step);
-  }
-  reference_pose(reference_pose_);
-  place(reference_pose_, nullptr);
-  reference_placed_ = new_position_;
-  reference_rotated_ = new_rotation_;
 }
 
 void FrameBuilder::reference_pose(FramePose& pose) const {
   pose.rotation.resize(model_.unknown_joints.size());
-  for (std::size_t u = 0; u < model_.unknown_joints.size(); ++u) pose.rotation[u] = local_rotation_[model_.unknown_joints[u]];
+  for (std::size_t u = 0; u < model_.unknown_joints.size(); ++u) pose.rotation[u] = reference_local(model_.unknown_joints[u]);
   pose.pelvis_offset.setZero();
 }
 
 void FrameBuilder::fill(const Limb& limb, const FramePose& pose, const MotionPlan& plan, LimbFrame& frame) const {
   const std::size_t nodes = limb.nodes.size();
-  frame.pelvis_rotation = world_rotation_[model_.pelvis];
-  frame.pelvis_position = world_position_[model_.pelvis];
+  frame.pelvis = reference_pose_.world[model_.pelvis];
   frame.pelvis_offset = pose.pelvis_offset;
   frame.pelvis_prior = plan.pelvis_offset[frame_];
-  frame.node_rotation.resize(nodes);
-  frame.node_offset.resize(nodes);
-  frame.world_rotation.resize(nodes);
-  frame.world_position.resize(nodes);
   frame.slot_value.resize(limb.slots.size());
   frame.slot_reference.resize(limb.slots.size());
   for (std::size_t s = 0; s < limb.slots.size(); ++s) {
     frame.slot_value[s] = pose.rotation[limb.slots[s]];
-    frame.slot_reference[s] = local_rotation_[model_.unknown_joints[limb.slots[s]]];
+    frame.slot_reference[s] = reference_local(model_.unknown_joints[limb.slots[s]]);
   }
-  const Eigen::Vector3d pelvis_position = frame.pelvis_position + frame.pelvis_offset;
-  for (std::size_t n = 0; n < nodes; ++n) {
-    const LimbNode& node = limb.nodes[n];
-    const int j = node.joint;
-    if (node.kind == Placement::child) {
-      frame.node_rotation[n] = node.slot >= 0 ? frame.slot_value[node.slot] : local_rotation_[j];
-      frame.node_offset[n] = local_translation_[j];
-    } else {
-      const int a = model_.anchor[j];
-      const Eigen::Quaterniond anchor_inverse = world_rotation_[a].conjugate();
-      frame.node_rotation[n] = node.kind == Placement::rigid ? anchor_inverse * world_rotation_[j] : world_rotation_[j];
-      frame.node_offset[n] = node.kind == Placement::chain_end
-                                 ? model_.chain_end_offset[j]
-                                 : Eigen::Vector3d(anchor_inverse * (world_position_[j] - world_position_[a]));
-    }
-    const Eigen::Quaterniond& from_rotation = node.from < 0 ? frame.pelvis_rotation : frame.world_rotation[node.from];
-    const Eigen::Vector3d& from_position = node.from < 0 ? pelvis_position : frame.world_position[node.from];
-    frame.world_position[n] = from_position + from_rotation * frame.node_offset[n];
-    const bool world_rotation = node.kind == Placement::attached || node.kind == Placement::chain_end;
-    frame.world_rotation[n] = world_rotation ? frame.node_rotation[n] : from_rotation * frame.node_rotation[n];
-  }
+  QuaternionKinematicData<double>& limb_pose = frame.pose;
+  limb_pose.base = {frame.pelvis.rotation, frame.pelvis.translation + frame.pelvis_offset};
+  limb_pose.local.resize(nodes);
+  limb_pose.world.resize(nodes);
+  for (std::size_t n = 0; n < nodes; ++n) limb_pose.local[n] = reference_placed_.local[limb.nodes[n].joint];
+  for (std::size_t s = 0; s < limb.slots.size(); ++s) limb_pose.local[limb.slot_nodes[s]].rotation = frame.slot_value[s];
+  forward_kinematics(limb.kinematics, limb_pose);
+
+  const auto source_position = [this](int joint) -> const Eigen::Vector3d& { return source_pose_.world[joint].translation; };
   frame.direction_target.resize(limb.directions.size());
   for (std::size_t d = 0; d < limb.directions.size(); ++d) {
     const DirectionTerm& term = limb.directions[d];
-    frame.direction_target[d] = (source_position_[term.source_to] - source_position_[term.source_from]).normalized();
+    frame.direction_target[d] = (source_position(term.source_to) - source_position(term.source_from)).normalized();
   }
   frame.effector_target.resize(limb.effectors.size());
   for (std::size_t e = 0; e < limb.effectors.size(); ++e) {
-    frame.effector_target[e] = model_.scale * (source_position_[limb.effectors[e].source_joint] - source_position_[model_.source_pelvis]);
+    frame.effector_target[e] = model_.scale * (source_position(limb.effectors[e].source_joint) - source_position(model_.source_pelvis));
   }
   frame.contact_joint.resize(limb.feet.size());
   frame.contact_target.resize(limb.feet.size());
@@ -545,65 +619,57 @@ void FrameBuilder::fill(const Limb& limb, const FramePose& pose, const MotionPla
     frame.contact_joint[f] = k;
     frame.contact_follow[f] = feet.follow[frame_];
     const int joint = k >= 0 ? model_.feet[limb.feet[f].side].joints[k] : -1;
-    frame.contact_target[f] = k >= 0 ? Eigen::Vector3d(reference_placed_[joint] + feet.offset[frame_]) : Eigen::Vector3d::Zero();
+    frame.contact_target[f] = k >= 0 ? Eigen::Vector3d(reference_position(joint) + feet.offset[frame_]) : Eigen::Vector3d::Zero();
   }
 }
 
+// Forward kinematics over the placement tree with the pose's unknowns and dp; a foot the plan
+// holds flat is turned as soon as it is placed, so that what hangs from it follows.
 void FrameBuilder::place(const FramePose& pose, const MotionPlan* plan) {
-  const Skeleton& skeleton = reference_.skeleton;
-  std::fill(flattened_.begin(), flattened_.end(), 0);
-  for (int j : model_.order) {
-    const int p = skeleton.parent(j);
-    switch (model_.placement[j]) {
-      case Placement::root:
-        new_rotation_[j] = world_rotation_[j];
-        new_position_[j] = world_position_[j] + pose.pelvis_offset;
-        break;
-      case Placement::child: {
-        const int u = model_.unknown_of[j];
-        const Eigen::Quaterniond& local = u >= 0 ? pose.rotation[u] : local_rotation_[j];
-        new_rotation_[j] = p < 0 ? local : new_rotation_[p] * local;
-        new_position_[j] = p < 0 ? local_translation_[j] : Eigen::Vector3d(new_position_[p] + new_rotation_[p] * local_translation_[j]);
-        break;
-      }
-      case Placement::rigid:
-      case Placement::attached: {
-        const int a = model_.anchor[j];
-        const Eigen::Quaterniond carried = new_rotation_[a] * world_rotation_[a].conjugate();
-        new_rotation_[j] = model_.placement[j] == Placement::rigid ? carried * world_rotation_[j] : world_rotation_[j];
-        new_position_[j] = new_position_[a] + carried * (world_position_[j] - world_position_[a]);
-        break;
-      }
-      case Placement::chain_end: {
-        const int a = model_.anchor[j];
-        new_rotation_[j] = world_rotation_[j];
-        new_position_[j] = new_position_[a] + new_rotation_[a] * model_.chain_end_offset[j];
-        break;
-      }
-    }
-    if (!plan) continue;
-    for (int side = 0; side < 2; ++side) {
-      const std::vector<double>& flat = plan->feet[side].flat;
-      if (flat.empty() || model_.feet[side].joints.front() != j || flat[frame_] <= 0) continue;
-      const Eigen::Quaterniond& rest = model_.rest_rotation[j];
-      const Eigen::Quaterniond held = heading_of(new_rotation_[j] * rest.conjugate()) * rest;
-      new_rotation_[j] = new_rotation_[j].slerp(flat[frame_], held);
-      flattened_[j] = 1;
-    }
+  placed_.local = reference_placed_.local;
+  for (std::size_t u = 0; u < model_.unknown_joints.size(); ++u) {
+    placed_.local[model_.unknown_joints[u]].rotation = pose.rotation[u];
   }
+  placed_.local[model_.root].translation += pose.pelvis_offset;
+  std::fill(flattened_.begin(), flattened_.end(), 0);
+  const std::span<const int> order(model_.kinematics.order);
+  std::array<std::pair<std::size_t, double>, 2> flat_feet{};  // position in the order, weight
+  int flat_count = 0;
+  for (int side = 0; plan && side < 2; ++side) {
+    const std::vector<double>& flat = plan->feet[side].flat;
+    if (flat.empty() || flat[frame_] <= 0) continue;
+    const int joint = model_.feet[side].joints.front();
+    flat_feet[flat_count++] = {static_cast<std::size_t>(std::find(order.begin(), order.end(), joint) - order.begin()), flat[frame_]};
+  }
+  if (flat_count == 2 && flat_feet[1].first < flat_feet[0].first) std::swap(flat_feet[0], flat_feet[1]);
+  std::size_t placed = 0;
+  for (int k = 0; k < flat_count; ++k) {
+    const auto [position, weight] = flat_feet[k];
+    forward_kinematics(model_.kinematics, placed_, order.subspan(placed, position + 1 - placed));
+    placed = position + 1;
+    // Held flat: the rest rotation turned about z as the placed foot turns, slerped in by `weight`.
+    const int j = order[position];
+    const Eigen::Quaterniond& rest = model_.rest_rotation[j];
+    Eigen::Quaterniond& now = placed_.world[j].rotation;
+    const Eigen::Quaterniond held = heading_of(now * rest.conjugate()) * rest;
+    now = now.slerp(weight, held);
+    flattened_[j] = 1;
+  }
+  forward_kinematics(model_.kinematics, placed_, order.subspan(placed));
 }
 
 void FrameBuilder::write(const FramePose& pose, const MotionPlan& plan, Clip& out) {
   place(pose, &plan);
   const Skeleton& skeleton = reference_.skeleton;
   const int joints = skeleton.joint_count();
+  const std::vector<QuaternionTransform<double>>& world = placed_.world;
   Eigen::Quaterniond* rotation = &out.rotations[std::size_t(frame_) * joints];
   for (int j = 0; j < joints; ++j) {
     const int p = skeleton.parent(j);
     if (model_.placement[j] == Placement::child && model_.unknown_of[j] < 0 && !flattened_[j]) {
-      rotation[j] = local_rotation_[j];
+      rotation[j] = reference_local(j);
     } else {
-      rotation[j] = (p < 0 ? new_rotation_[j] : new_rotation_[p].conjugate() * new_rotation_[j]).normalized();
+      rotation[j] = (p < 0 ? world[j].rotation : world[p].rotation.conjugate() * world[j].rotation).normalized();
     }
   }
   const std::size_t tracks = out.translated_joints.size();
@@ -611,7 +677,7 @@ void FrameBuilder::write(const FramePose& pose, const MotionPlan& plan, Clip& ou
   for (std::size_t t = 0; t < tracks; ++t) {
     const int j = out.translated_joints[t];
     const int p = skeleton.parent(j);
-    translation[t] = p < 0 ? new_position_[j] : Eigen::Vector3d(new_rotation_[p].conjugate() * (new_position_[j] - new_position_[p]));
+    translation[t] = p < 0 ? world[j].translation : Eigen::Vector3d(world[p].rotation.conjugate() * (world[j].translation - world[p].translation));
   }
 }
 

@@ -16,10 +16,15 @@
 //              the leg reaches the foot; its world rotation the reference's
 //   root       the skeleton root above the pelvis: the reference's, moved by dp
 //
-// A limb is the part of the skeleton its residuals read: nodes from the pelvis down to every joint
-// a residual needs, each node hanging from its parent (child) or its anchor (rigid, attached,
-// chain_end), in an order where that node comes first. Its slots are the unknown rotations its
-// nodes read; the first `owned` are solved with it, the others are held at their current value.
+// These placements make a kinematic tree over the target's joints (RefineModel::kinematics,
+// fk.h): a joint hangs from its parent (child) or its anchor (the others), with its local
+// transform read off the reference; attached and chain_end joints hold their rotation in world;
+// the root hangs from the world. Placing a frame is forward kinematics over that tree.
+//
+// A limb is the part of the tree its residuals read: nodes from the pelvis down to every joint a
+// residual needs, as their own tree hanging from the pelvis (Limb::kinematics). Its slots are the
+// unknown rotations its nodes read; the first `owned` are solved with it, the others are held at
+// their current value.
 #pragma once
 
 #include <Eigen/Core>
@@ -29,7 +34,9 @@
 #include <string>
 #include <vector>
 
+#include "retarget/geometry.h"
 #include "retarget/refine.h"
+#include "skeleton/fk.h"
 
 namespace odyssey::retarget::refinement {
 
@@ -44,8 +51,6 @@ enum class Placement { child, rigid, attached, chain_end, root };
 
 struct LimbNode {
   int joint = -1;  // target joint
-  int from = -1;   // node it hangs from (its parent, or its anchor); -1: the pelvis
-  Placement kind = Placement::child;  // not root
   int slot = -1;   // child nodes whose rotation is unknown: the limb's slot
 };
 
@@ -69,16 +74,21 @@ struct FootTerm {
 struct Limb {
   std::string name;
   std::vector<LimbNode> nodes;
-  std::vector<int> slots;  // unknown index of each slot, owned first
+  // The nodes as a tree hanging from the pelvis (the base): each hangs from the node of its
+  // parent or anchor, attached and chain_end nodes with their rotation in world.
+  KinematicModel kinematics;
+  std::vector<int> slots;       // unknown index of each slot, owned first
+  std::vector<int> slot_nodes;  // node of each slot
   int owned = 0;
   bool moves_pelvis = false;  // dp is solved with this limb
   std::vector<DirectionTerm> directions;
   std::vector<EffectorTerm> effectors;
   std::vector<FootTerm> feet;
   double length_scale = 1;  // RefineModel::length_scale
-  // Per node: whether its world transform depends on what the limb solves (its owned slots, dp
-  // if it moves the pelvis); the others read the frame's precomputed world transforms.
-  std::vector<std::uint8_t> variable;
+  // The nodes whose world transform depends on what the limb solves (its owned slots, dp if it
+  // moves the pelvis), in order: forward kinematics runs over these per evaluation, the others
+  // (fixed_nodes) keep the frame's world transforms.
+  std::vector<int> moving_nodes, fixed_nodes;
 
   int residual_count() const;
   int parameter_count() const { return 3 * owned + (moves_pelvis ? 3 : 0); }  // rotation vectors, dp
@@ -94,7 +104,9 @@ struct RefineModel {
   std::vector<Placement> placement;  // per target joint
   std::vector<int> anchor;           // rigid, attached, chain_end: the joint it moves with
   std::vector<Eigen::Vector3d> chain_end_offset;  // chain_end: c_rest
-  std::vector<int> order;            // every target joint after its parent and its anchor
+  // The placement tree (above): parents the joints hung from, each after its parent and its
+  // anchor in `kinematics.order`; rest transforms unused (every frame sets its own).
+  KinematicModel kinematics;
   std::vector<int> unknown_joints;   // ascending
   std::vector<int> unknown_of;       // per target joint, -1 when not unknown
   std::array<Foot, 2> feet;          // the target's
@@ -141,17 +153,12 @@ struct FramePose {
 
 // What a limb's residuals read in one frame.
 struct LimbFrame {
-  Eigen::Quaterniond pelvis_rotation;  // the reference's, world
-  Eigen::Vector3d pelvis_position;     // the reference's, world (dp not added)
-  Eigen::Vector3d pelvis_offset;       // dp's current value
-  Eigen::Vector3d pelvis_prior;        // dp_plan(t)
-  // Per node: child: local rotation (the reference's, or a slot's current value) and offset
-  // from the parent; rigid: rotation and offset relative to the anchor; attached, chain_end:
-  // world rotation, and offset from the anchor in the anchor's frame.
-  std::vector<Eigen::Quaterniond> node_rotation;
-  std::vector<Eigen::Vector3d> node_offset;
-  std::vector<Eigen::Quaterniond> world_rotation;  // forward kinematics at the current values
-  std::vector<Eigen::Vector3d> world_position;
+  QuaternionTransform<double> pelvis;  // the reference's pelvis, world (dp not added)
+  Eigen::Vector3d pelvis_offset;  // dp's current value
+  Eigen::Vector3d pelvis_prior;   // dp_plan(t)
+  // The limb's nodes at the current values: base the pelvis moved by dp; locals as the placement
+  // tree's (a slot's at its current value); world transforms from forward kinematics.
+  QuaternionKinematicData<double> pose;
   std::vector<Eigen::Quaterniond> slot_value;      // current value of every slot
   std::vector<Eigen::Quaterniond> slot_reference;  // the reference's local rotation of every slot
   std::vector<Eigen::Vector3d> direction_target;   // unit
@@ -171,13 +178,13 @@ class FrameBuilder {
   // The loaded frame's reference as a FramePose (unknowns at the reference, dp = 0).
   void reference_pose(FramePose& pose) const;
   // The loaded frame's reference local rotation of a target joint.
-  const Eigen::Quaterniond& reference_local(int joint) const { return local_rotation_[joint]; }
+  const Eigen::Quaterniond& reference_local(int joint) const { return reference_.rotation(frame_, joint); }
   double fps() const { return reference_.fps; }
   void fill(const Limb& limb, const FramePose& pose, const MotionPlan& plan, LimbFrame& frame) const;
   // Where a joint is in the loaded frame's reference pose, placed as above (an IK foot at the
   // end of its shin, not where the transfer put it).
-  const Eigen::Vector3d& reference_position(int joint) const { return reference_placed_[joint]; }
-  const Eigen::Quaterniond& reference_rotation(int joint) const { return reference_rotated_[joint]; }
+  const Eigen::Vector3d& reference_position(int joint) const { return reference_placed_.world[joint].translation; }
+  const Eigen::Quaterniond& reference_rotation(int joint) const { return reference_placed_.world[joint].rotation; }
   // Writes the loaded frame of `out` (a clip laid out as the reference) from a solved pose: every
   // joint placed as above, single-joint feet held flat as the plan says, locals recomputed where
   // a joint's parent or anchor moved.
@@ -187,21 +194,14 @@ class FrameBuilder {
   const RefineModel& model_;
   const Clip& reference_;
   const Clip& source_;
-  Eigen::Quaterniond levelling_;
-  std::vector<int> track_of_;         // per target joint: index in reference.translated_joints, or -1
-  std::vector<int> source_track_of_;  // the same for the source
   int frame_ = -1;
-  std::vector<Eigen::Quaterniond> local_rotation_, world_rotation_;
-  std::vector<Eigen::Vector3d> local_translation_, world_position_;
-  std::vector<Eigen::Vector3d> source_position_;  // levelled, unscaled
-  std::vector<Eigen::Quaterniond> source_rotation_;
-  FramePose reference_pose_;
-  std::vector<Eigen::Vector3d> reference_placed_;
-  std::vector<Eigen::Quaterniond> reference_rotated_;
-  std::vector<Eigen::Quaterniond> new_rotation_;  // place()'s output
-  std::vector<Eigen::Vector3d> new_position_;
-  std::vector<std::uint8_t> flattened_;            // place() held the joint flat
+  QuaternionKinematicData<double> reference_pose_;    // the reference's frame on the target skeleton
+  QuaternionKinematicData<double> source_pose_;       // the source's frame, levelled (contacts.h)
+  QuaternionKinematicData<double> reference_placed_;  // the placement tree at the reference (dp = 0)
+  QuaternionKinematicData<double> placed_;            // place()'s output
+  std::vector<std::uint8_t> flattened_;     // place() held the joint flat
 
+  void place_locals();
   void place(const FramePose& pose, const MotionPlan* plan);
 };
 
@@ -210,54 +210,37 @@ class FrameBuilder {
 MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const FootContacts& contacts, int blend_frames,
                        bool fit_stride);
 
-// 2 vec(a^-1 b) with the sign that makes the scalar part >= 0: the rotation vector of a^-1 b
-// for small angles, the same for b and -b.
-template <class T>
-Vector3<T> rotation_difference(const Eigen::Quaternion<T>& a, const Eigen::Quaternion<T>& b) {
-  const Eigen::Quaternion<T> change = a.conjugate() * b;
-  const T sign = change.w() < T(0) ? T(-2) : T(2);
-  return sign * change.vec();
-}
-
-// Buffers for limb_residuals, sized for one limb, reused across evaluations (a jet is large, and
-// a fresh array of them would be zeroed on every call).
+// Buffers for limb_residuals, sized for one limb and reused across evaluations (a jet is large,
+// and a fresh array of them would be zeroed on every call): the limb's pose, which load() fills
+// from a frame and whose owned slots' rotations the caller sets per evaluation.
 template <class T>
 struct LimbWork {
-  std::vector<Eigen::Quaternion<T>, Eigen::aligned_allocator<Eigen::Quaternion<T>>> slot, rotation;
-  std::vector<Vector3<T>, Eigen::aligned_allocator<Vector3<T>>> position;
-  explicit LimbWork(const Limb& limb) : slot(limb.slots.size()), rotation(limb.nodes.size()), position(limb.nodes.size()) {}
+  const Limb& limb;
+  QuaternionKinematicData<T> pose;
+
+  explicit LimbWork(const Limb& limb) : limb(limb), pose(limb.kinematics) {}
+  Eigen::Quaternion<T>& slot(int s) { return pose.local[limb.slot_nodes[s]].rotation; }
+  // What evaluations do not change: the pelvis's rotation, the moving nodes' local transforms (held
+  // slots at their value) and the other nodes' world transforms.
+  void load(const LimbFrame& frame) {
+    pose.base.rotation = frame.pelvis.rotation.template cast<T>();
+    for (int n : limb.moving_nodes) pose.local[n] = frame.pose.local[n].template cast<T>();
+    for (int n : limb.fixed_nodes) pose.world[n] = frame.pose.world[n].template cast<T>();
+  }
 };
 
 // Residuals of one limb in one frame (refine.h), in the order: directions (3 each), effectors
 // (3 each), feet (contact 3, then floor 1 per joint), pose of the owned slots (3 each), pelvis
-// (3, when the limb moves it); lengths times limb.length_scale. The slots' rotations are in
-// work.slot.
+// (3, when the limb moves it); lengths times limb.length_scale. The owned slots' rotations are in
+// work.slot(s), the rest as work.load(frame) left it.
 template <class T>
 void limb_residuals(const Limb& limb, const RefineWeights& w, const LimbFrame& frame, const Vector3<T>& pelvis_offset,
                     LimbWork<T>& work, T* residual) {
   using std::sqrt;
-  auto& rotation = work.rotation;
-  auto& position = work.position;
-  const auto& slot_rotation = work.slot;
-  const Eigen::Quaternion<T> pelvis_rotation = frame.pelvis_rotation.template cast<T>();
-  const Vector3<T> pelvis_position = frame.pelvis_position.template cast<T>() + pelvis_offset;
-  const std::size_t nodes = limb.nodes.size();
-  for (std::size_t n = 0; n < nodes; ++n) {
-    if (!limb.variable[n]) {
-      rotation[n] = frame.world_rotation[n].template cast<T>();
-      position[n] = frame.world_position[n].template cast<T>();
-      continue;
-    }
-    const LimbNode& node = limb.nodes[n];
-    const Eigen::Quaternion<T>& from_rotation = node.from < 0 ? pelvis_rotation : rotation[node.from];
-    const Vector3<T>& from_position = node.from < 0 ? pelvis_position : position[node.from];
-    position[n] = from_position + from_rotation * frame.node_offset[n].template cast<T>();
-    if (node.kind == Placement::attached || node.kind == Placement::chain_end) {
-      rotation[n] = frame.node_rotation[n].template cast<T>();
-    } else {
-      rotation[n] = from_rotation * (node.slot >= 0 ? slot_rotation[node.slot] : frame.node_rotation[n].template cast<T>());
-    }
-  }
+  QuaternionKinematicData<T>& pose = work.pose;
+  pose.base.translation = frame.pelvis.translation.template cast<T>() + pelvis_offset;
+  forward_kinematics(limb.kinematics, pose, limb.moving_nodes);
+  const auto position = [&pose](int node) -> const Vector3<T>& { return pose.world[node].translation; };
 
   T* r = residual;
   const auto put = [&r](const Vector3<T>& value, double weight) {
@@ -267,33 +250,34 @@ void limb_residuals(const Limb& limb, const RefineWeights& w, const LimbFrame& f
     const DirectionTerm& term = limb.directions[d];
     Vector3<T> direction;
     if (term.to < 0) {
-      direction = rotation[term.from] * term.rest_chord.template cast<T>();
+      direction = pose.world[term.from].rotation * term.rest_chord.template cast<T>();
     } else {
-      const Vector3<T> chord = position[term.to] - position[term.from];
+      const Vector3<T> chord = position(term.to) - position(term.from);
       direction = chord / sqrt(chord.squaredNorm());
     }
     put(direction - frame.direction_target[d].template cast<T>(), w.bone_direction);
   }
   const double length = limb.length_scale;
   for (std::size_t e = 0; e < limb.effectors.size(); ++e) {
-    put(position[limb.effectors[e].node] - pelvis_position - frame.effector_target[e].template cast<T>(), length * w.end_effector);
+    put(position(limb.effectors[e].node) - pose.base.translation - frame.effector_target[e].template cast<T>(),
+        length * w.end_effector);
   }
   for (std::size_t f = 0; f < limb.feet.size(); ++f) {
     const FootTerm& foot = limb.feet[f];
     const int joint = frame.contact_joint[f];
     if (joint >= 0) {
-      put(position[foot.nodes[joint]] - frame.contact_target[f].template cast<T>() - T(frame.contact_follow[f]) * pelvis_offset,
+      put(position(foot.nodes[joint]) - frame.contact_target[f].template cast<T>() - T(frame.contact_follow[f]) * pelvis_offset,
           length * w.foot_contact);
     } else {
       put(Vector3<T>::Zero(), 0.0);
     }
     for (std::size_t k = 0; k < foot.nodes.size(); ++k) {
-      const T depth = T(foot.ground_heights[k]) - position[foot.nodes[k]].z();
+      const T depth = T(foot.ground_heights[k]) - position(foot.nodes[k]).z();
       *r++ = depth > T(0) ? T(length * w.floor) * depth : T(0);
     }
   }
   for (int s = 0; s < limb.owned; ++s) {
-    put(rotation_difference(Eigen::Quaternion<T>(frame.slot_reference[s].template cast<T>()), slot_rotation[s]), w.pose);
+    put(rotation_difference(Eigen::Quaternion<T>(frame.slot_reference[s].template cast<T>()), work.slot(s)), w.pose);
   }
   if (limb.moves_pelvis) put(pelvis_offset - frame.pelvis_prior.template cast<T>(), length * w.pelvis);
 }

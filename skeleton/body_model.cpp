@@ -331,7 +331,7 @@ BodyModelEvaluator::BodyModelEvaluator(const BodyModel& model, BodyModelOptions 
     ws.groups.push_back(std::move(group));
   }
 
-  ws.chain = KinematicModel(model_.parents, std::vector<RigidTransform<double>>(joints));
+  ws.chain = KinematicModel(model_.parents, {});
   ws.pose = KinematicData<double>(ws.chain);
   ws.reserve(1, joints, vertices);
   set_shape({});

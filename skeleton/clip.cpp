@@ -42,19 +42,36 @@ void Clip::validate() const {
   }
 }
 
-void Clip::local_pose(int frame, std::span<RigidTransform<double>> local) const {
-  const int joints = joint_count();
-  const auto& offsets = skeleton.rest_offsets();
-  const Eigen::Quaterniond* frame_rotations = &rotations[std::size_t(frame) * joints];
+namespace {
+
+template <class Transform>
+void local_pose_of(const Clip& clip, int frame, std::span<Transform> local) {
+  const int joints = clip.joint_count();
+  const auto& offsets = clip.skeleton.rest_offsets();
+  const Eigen::Quaterniond* frame_rotations = &clip.rotations[std::size_t(frame) * joints];
   for (int j = 0; j < joints; ++j) {
-    local[j].rotation = frame_rotations[j].toRotationMatrix();
+    if constexpr (Transform::kQuaternion) {
+      local[j].rotation = frame_rotations[j];
+    } else {
+      local[j].rotation = frame_rotations[j].toRotationMatrix();
+    }
     local[j].translation = offsets[j];
   }
-  const std::size_t k = translated_joints.size();
-  for (std::size_t t = 0; t < k; ++t) local[translated_joints[t]].translation = translations[frame * k + t];
+  const std::size_t k = clip.translated_joints.size();
+  for (std::size_t t = 0; t < k; ++t) local[clip.translated_joints[t]].translation = clip.translations[frame * k + t];
 }
 
+}  // namespace
+
+void Clip::local_pose(int frame, std::span<RigidTransform<double>> local) const { local_pose_of(*this, frame, local); }
+void Clip::local_pose(int frame, std::span<QuaternionTransform<double>> local) const { local_pose_of(*this, frame, local); }
+
 void Clip::world_pose(int frame, KinematicData<double>& data) const {
+  local_pose(frame, data.local);
+  forward_kinematics(skeleton.kinematics(), data);
+}
+
+void Clip::world_pose(int frame, QuaternionKinematicData<double>& data) const {
   local_pose(frame, data.local);
   forward_kinematics(skeleton.kinematics(), data);
 }

@@ -32,11 +32,14 @@ struct Clip {
   // non-finite value (naming the first bad frame and joint).
   void validate() const;
 
-  // Local transforms of one frame (rest offsets where not animated).
+  // Local transforms of one frame (rest offsets where not animated), rotations as matrices or as
+  // the clip's quaternions.
   void local_pose(int frame, std::span<RigidTransform<double>> local) const;
+  void local_pose(int frame, std::span<QuaternionTransform<double>> local) const;
   // One frame posed on skeleton.kinematics(): data.local from local_pose, data.world by forward
   // kinematics from data.base (kept as the caller set it: a levelling, say). Allocates nothing.
   void world_pose(int frame, KinematicData<double>& data) const;
+  void world_pose(int frame, QuaternionKinematicData<double>& data) const;
   // World transforms of one frame (roots hung from the origin).
   void world_pose(int frame, std::span<RigidTransform<double>> world) const;
 

@@ -18,6 +18,7 @@ KinematicModel::KinematicModel(std::vector<int> parents_in, std::vector<RigidTra
     std::iota(order.begin(), order.end(), 0);
   }
   if (rotation_in_world.empty()) rotation_in_world.assign(n, 0);
+  if (rest.empty()) rest.resize(n);
   sizes("rest transforms", rest.size());
   sizes("joints in the order", order.size());
   sizes("rotation_in_world flags", rotation_in_world.size());

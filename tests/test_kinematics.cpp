@@ -1,8 +1,14 @@
-// Skeleton construction, forward kinematics against hand-computed chains, and clip resampling.
+// Skeleton construction, forward kinematics (the model, its validation, joint subsets, joints
+// whose rotation is held in world, both rotation forms, derivatives on Ceres jets) against
+// hand-computed chains and finite differences, and clip resampling.
+#include <ceres/jet.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <random>
+#include <string>
 
 #include "skeleton/clip.h"
 #include "skeleton/fk.h"
@@ -61,6 +67,172 @@ TEST(ForwardKinematicsTest, RunsOnAnotherScalarType) {
   const std::vector<int> parents{-1, 0, 1};
   forward_kinematics<long double>(parents, local, world);
   EXPECT_NEAR(static_cast<double>(world[2].translation.y()), 1.0, 1e-15);
+}
+
+// Every invalid tree is refused with a message that says what is wrong.
+TEST(KinematicModelTest, RejectsInvalidTrees) {
+  const auto message = [](auto&& build) {
+    try {
+      build();
+    } catch (const std::invalid_argument& error) {
+      return std::string(error.what());
+    }
+    return std::string("accepted");
+  };
+  const std::vector<RigidTransform<double>> three(3);
+  EXPECT_NE(message([&] { KinematicModel({-1, 0, 1}, std::vector<RigidTransform<double>>(2)); }).find("3 parents but 2 rest"),
+            std::string::npos);
+  EXPECT_NE(message([&] { KinematicModel({-1, 0, 1}, three, {0, 1}); }).find("3 parents but 2 joints in the order"), std::string::npos);
+  EXPECT_NE(message([&] { KinematicModel({-1, 0, 1}, three, {}, {0, 1}); }).find("3 parents but 2 rotation_in_world"),
+            std::string::npos);
+  EXPECT_NE(message([&] { KinematicModel({-1, 0, 3}, three); }).find("parent 3, out of range"), std::string::npos);
+  EXPECT_NE(message([&] { KinematicModel({-1, 2, 0}, three); }).find("before its parent"), std::string::npos);
+  EXPECT_NE(message([&] { KinematicModel({-1, 0, 0}, three, {0, 1, 1}); }).find("twice"), std::string::npos);
+  EXPECT_NE(message([&] { KinematicModel({-1, 0, 0}, three, {0, 1, 5}); }).find("out of range"), std::string::npos);
+  // A joint may hang from a later one when the order places the later one first.
+  EXPECT_EQ(message([&] { KinematicModel({-1, 2, 0}, three, {0, 2, 1}); }), "accepted");
+
+  const KinematicModel model({-1, 0, 1}, three);
+  KinematicData<double> short_data(KinematicModel({-1, 0}, {}));
+  EXPECT_NE(message([&] { forward_kinematics(model, short_data); }).find("data for 2 joints, model of 3"), std::string::npos);
+}
+
+// A joint whose rotation is held in world rides on its parent's position only: turning the
+// parent moves it but does not turn it.
+TEST(ForwardKinematicsTest, RotationInWorldFollowsOnlyTheParentsPosition) {
+  // root -> shin (1 m along x) -> foot (0.5 m along x in the shin's frame, its rotation in world).
+  const KinematicModel model({-1, 0, 1}, {}, {}, {0, 0, 1});
+  KinematicData<double> data(model);
+  data.local[1].translation = Vector3d(1, 0, 0);
+  data.local[1].rotation = about_z(std::numbers::pi / 2).toRotationMatrix();
+  data.local[2].translation = Vector3d(0.5, 0, 0);
+  data.local[2].rotation = about_x(0.3).toRotationMatrix();
+  forward_kinematics(model, data);
+  // The shin turned 90 deg about z: the foot sits 0.5 m along +y from (1,0,0), and keeps its own
+  // rotation about x.
+  EXPECT_LT((data.world[2].translation - Vector3d(1, 0.5, 0)).norm(), 1e-15);
+  EXPECT_LT((data.world[2].rotation - about_x(0.3).toRotationMatrix()).norm(), 1e-15);
+}
+
+// Forward kinematics over a subset recomputes the listed joints only, from parents either listed
+// before them or left in the data.
+TEST(ForwardKinematicsTest, SubsetReadsUnlistedParentsFromTheData) {
+  const Skeleton skeleton = arm();
+  const KinematicModel& model = skeleton.kinematics();
+  KinematicData<double> data(model);
+  forward_kinematics(model, data);
+  const std::vector<RigidTransform<double>> rest = data.world;
+  data.local[0].rotation = about_z(std::numbers::pi / 2).toRotationMatrix();
+  data.local[2].rotation = about_x(1.0).toRotationMatrix();
+  const std::vector<int> wrist{2};
+  forward_kinematics(model, data, wrist);
+  EXPECT_EQ(data.world[0].translation, rest[0].translation);  // not listed: untouched
+  EXPECT_EQ(data.world[1].translation, rest[1].translation);
+  EXPECT_LT((data.world[2].translation - Vector3d(2.5, 0, 0)).norm(), 1e-15);  // from the elbow as it was
+  const std::vector<int> all{0, 1, 2};
+  forward_kinematics(model, data, all);
+  EXPECT_LT((data.world[2].translation - Vector3d(1, 1.5, 0)).norm(), 1e-15);
+}
+
+// A random tree (parents anywhere, placed through `order`, some rotations held in world), posed
+// at random.
+struct RandomTree {
+  KinematicModel model;
+  std::vector<QuaternionTransform<double>> local;
+};
+
+RandomTree random_tree(int joints, unsigned seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  std::vector<int> order(joints);
+  for (int k = 0; k < joints; ++k) order[k] = k;
+  std::shuffle(order.begin(), order.end(), random);
+  std::vector<int> parents(joints, -1);
+  std::vector<std::uint8_t> in_world(joints, 0);
+  for (int k = 1; k < joints; ++k) {
+    parents[order[k]] = order[std::uniform_int_distribution<int>(0, k - 1)(random)];
+    in_world[order[k]] = k % 4 == 3;
+  }
+  RandomTree tree{KinematicModel(parents, {}, order, in_world), {}};
+  for (int j = 0; j < joints; ++j) {
+    const Quaterniond q = Quaterniond(uniform(random), uniform(random), uniform(random), uniform(random)).normalized();
+    tree.local.push_back({q, Vector3d(uniform(random), uniform(random), uniform(random))});
+  }
+  return tree;
+}
+
+// The quaternion and the matrix forms are two routes to the same poses.
+TEST(ForwardKinematicsTest, QuaternionAndMatrixFormsAgree) {
+  for (unsigned seed = 0; seed < 10; ++seed) {
+    const RandomTree tree = random_tree(25, seed);
+    KinematicData<double> matrices(tree.model);
+    QuaternionKinematicData<double> quaternions(tree.model);
+    quaternions.base = {about_x(0.4), Vector3d(0.1, -2, 3)};
+    matrices.base = {quaternions.base.rotation.toRotationMatrix(), quaternions.base.translation};
+    for (std::size_t j = 0; j < tree.local.size(); ++j) {
+      quaternions.local[j] = tree.local[j];
+      matrices.local[j] = {tree.local[j].rotation.toRotationMatrix(), tree.local[j].translation};
+    }
+    forward_kinematics(tree.model, matrices);
+    forward_kinematics(tree.model, quaternions);
+    for (std::size_t j = 0; j < tree.local.size(); ++j) {
+      EXPECT_LT((matrices.world[j].translation - quaternions.world[j].translation).norm(), 1e-13) << seed << " " << j;
+      EXPECT_LT((matrices.world[j].rotation - quaternions.world[j].rotation.toRotationMatrix()).norm(), 1e-13) << seed << " " << j;
+    }
+  }
+}
+
+// On jets, the derivatives of every joint's world position with respect to one joint's local
+// rotation (a rotation vector applied after it) and the base's translation match central finite
+// differences.
+TEST(ForwardKinematicsTest, JetDerivativesMatchFiniteDifferences) {
+  using Jet = ceres::Jet<double, 6>;
+  const RandomTree tree = random_tree(12, 7);
+  const int joints = static_cast<int>(tree.local.size());
+  const int turned = tree.model.order[2];
+  // Positions with joint `turned` turned by the rotation vector x[0..2] and the base moved by x[3..5].
+  const auto positions = [&](const auto* x) {
+    using T = std::remove_cv_t<std::remove_pointer_t<decltype(x)>>;
+    using std::cos;
+    using std::sin;
+    using std::sqrt;
+    QuaternionKinematicData<T> data(tree.model);
+    for (int j = 0; j < joints; ++j) data.local[j] = tree.local[j].template cast<T>();
+    const T angle = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+    const T k = sin(angle / 2.0) / angle;
+    data.local[turned].rotation = data.local[turned].rotation * Eigen::Quaternion<T>(cos(angle / 2.0), k * x[0], k * x[1], k * x[2]);
+    data.base.translation = Eigen::Matrix<T, 3, 1>(x[3], x[4], x[5]);
+    forward_kinematics(tree.model, data);
+    std::vector<Eigen::Matrix<T, 3, 1>> out;
+    for (const auto& joint : data.world) out.push_back(joint.translation);
+    return out;
+  };
+  const double at[6] = {0.3, -0.2, 0.1, 0.5, 0.0, -0.5};
+  Jet x[6];
+  for (int k = 0; k < 6; ++k) x[k] = Jet(at[k], k);
+  const auto jets = positions(static_cast<const Jet*>(x));
+  constexpr double h = 1e-6;
+  for (int k = 0; k < 6; ++k) {
+    double plus[6], minus[6];
+    std::copy(at, at + 6, plus);
+    std::copy(at, at + 6, minus);
+    plus[k] += h;
+    minus[k] -= h;
+    const auto above = positions(static_cast<const double*>(plus)), below = positions(static_cast<const double*>(minus));
+    for (int j = 0; j < joints; ++j) {
+      for (int i = 0; i < 3; ++i) EXPECT_NEAR(jets[j][i].v[k], (above[j][i] - below[j][i]) / (2 * h), 1e-8) << j << " " << i << " " << k;
+    }
+  }
+}
+
+// The skeleton's model is its rest pose: rest_world and a clip's frame at rest agree with it.
+TEST(ForwardKinematicsTest, SkeletonModelIsItsRestPose) {
+  const Skeleton skeleton = arm();
+  QuaternionKinematicData<double> data(skeleton.kinematics());
+  forward_kinematics(skeleton.kinematics(), data);
+  const std::vector<RigidTransform<double>> rest = skeleton.rest_world();
+  for (int j = 0; j < skeleton.joint_count(); ++j) EXPECT_LT((data.world[j].translation - rest[j].translation).norm(), 1e-15);
+  EXPECT_LT((rest[2].translation - Vector3d(2.5, 0, 0)).norm(), 1e-15);
 }
 
 TEST(SkeletonTest, RejectsParentThatDoesNotPrecede) {

@@ -3,8 +3,10 @@
 // limbs still following the source, no more skating than the source, accurate smoother than
 // balanced, warm start and threads not changing the answer; and the placement model assembling
 // the transferred clip back from the transferred pose.
+#include <ceres/jet.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -361,6 +363,66 @@ TEST(RefineModelTest, ReferencePoseAssemblesTheTransferredClip) {
       double worst = 0;
       for (int f = 0; f < reference.frame_count(); ++f) worst = std::max(worst, (placed[f][j] - expected[f][j]).norm());
       EXPECT_LT(worst, 1e-9) << character << " " << reference.skeleton.name(j);
+    }
+  }
+}
+
+// Each limb's residuals on jets, which recompute only the nodes that move with what the limb
+// solves, against central finite differences of the whole limb placed again from the perturbed
+// pose (FrameBuilder::fill): the derivatives, and the split into moving and fixed nodes, agree.
+TEST(RefineModelTest, LimbJacobiansMatchFiniteDifferencesOfTheWholePose) {
+  constexpr int kMaxParameters = 32;  // 4 per owned slot (quaternion coefficients) and dp's 3
+  using Jet = ceres::Jet<double, kMaxParameters>;
+  const RefineWeights weights = default_refine_options(Quality::accurate).weights;
+  for (const std::string& character : kCharacters) {
+    const RetargetResult& fast = shared().fast.at(character);
+    const refinement::RefineModel model = refinement::build_refine_model(fast);
+    refinement::FrameBuilder builder(model, fast.transfer.clip, shared().source, fast.source_feet);
+    const refinement::MotionPlan plan = refinement::plan_motion(model, builder, fast.contacts, 12, true);
+    builder.load(150);
+    refinement::FramePose pose;
+    builder.reference_pose(pose);
+    pose.pelvis_offset = plan.pelvis_offset[150] + Vector3d(0.01, -0.02, 0.005);
+    for (const refinement::Limb& limb : model.limbs) {
+      const int owned = limb.owned, parameters = 4 * owned + (limb.moves_pelvis ? 3 : 0);
+      ASSERT_LE(parameters, kMaxParameters);
+      const int residuals = limb.residual_count();
+      // Residuals with the owned slots' quaternions and dp moved by `step`, the whole limb placed again.
+      const auto placed_again = [&](const std::vector<double>& step) {
+        refinement::FramePose moved = pose;
+        for (int s = 0; s < owned; ++s) moved.rotation[limb.slots[s]].coeffs() += Eigen::Map<const Eigen::Vector4d>(&step[4 * s]);
+        if (limb.moves_pelvis) moved.pelvis_offset += Eigen::Map<const Vector3d>(&step[4 * owned]);
+        refinement::LimbFrame frame;
+        builder.fill(limb, moved, plan, frame);
+        refinement::LimbWork<double> work(limb);
+        work.load(frame);
+        std::vector<double> out(residuals);
+        refinement::limb_residuals<double>(limb, weights, frame, moved.pelvis_offset, work, out.data());
+        return out;
+      };
+      refinement::LimbFrame frame;
+      builder.fill(limb, pose, plan, frame);
+      refinement::LimbWork<Jet> work(limb);
+      work.load(frame);
+      for (int s = 0; s < owned; ++s) {
+        const Quaterniond& q = pose.rotation[limb.slots[s]];
+        work.slot(s) = Eigen::Quaternion<Jet>(Jet(q.w(), 4 * s + 3), Jet(q.x(), 4 * s), Jet(q.y(), 4 * s + 1), Jet(q.z(), 4 * s + 2));
+      }
+      Eigen::Matrix<Jet, 3, 1> offset = pose.pelvis_offset.cast<Jet>();
+      for (int i = 0; limb.moves_pelvis && i < 3; ++i) offset[i].v[4 * owned + i] = 1;
+      std::vector<Jet> jets(residuals);
+      refinement::limb_residuals<Jet>(limb, weights, frame, offset, work, jets.data());
+      constexpr double h = 1e-6;
+      double worst = 0;
+      for (int k = 0; k < parameters; ++k) {
+        std::vector<double> step(parameters, 0.0);
+        step[k] = h;
+        const std::vector<double> above = placed_again(step);
+        step[k] = -h;
+        const std::vector<double> below = placed_again(step);
+        for (int r = 0; r < residuals; ++r) worst = std::max(worst, std::abs(jets[r].v[k] - (above[r] - below[r]) / (2 * h)));
+      }
+      EXPECT_LT(worst, 1e-6) << character << " " << limb.name;
     }
   }
 }
