@@ -205,34 +205,11 @@ std::vector<PendingTerm> residual_terms(const RetargetRig& rig, const RefineMode
   return pending;
 }
 
-// The limb of one group: its unknowns (owned slots), the residuals that go to it (each to the last
-// limb in solve order among those owning an unknown it depends on; feet, which also depend on dp,
-// at least to the lower body), and the nodes they read. None when it has neither.
-std::optional<Limb> build_limb(int group, const RefineModel& model, const std::vector<int>& group_of_unknown,
-                               const std::vector<PendingTerm>& pending, const Dependencies& depends) {
-  Limb limb;
-  limb.name = kLimbNames[group];
-  limb.moves_pelvis = group == lower_body;
-  limb.length_scale = model.length_scale;
-  Mask owned_mask = 0;
-  for (std::size_t u = 0; u < model.unknown_joints.size(); ++u) {
-    if (group_of_unknown[u] == group) {
-      limb.slots.push_back(static_cast<int>(u));
-      owned_mask |= Mask(1) << u;
-    }
-  }
-  limb.owned = static_cast<int>(limb.slots.size());
-  std::vector<const PendingTerm*> terms;
-  for (const PendingTerm& term : pending) {
-    int last = lower_body;
-    for (std::size_t u = 0; u < model.unknown_joints.size(); ++u) {
-      if (term.mask & (Mask(1) << u)) last = std::max(last, group_of_unknown[u]);
-    }
-    if (last == group) terms.push_back(&term);
-  }
-  if (terms.empty() && limb.owned == 0) return std::nullopt;
-
-  // Nodes: every joint on the way from the pelvis to what the residuals and slots read.
+// The limb's nodes: every joint on the way from the pelvis to what its residuals and owned slots
+// read, in placement order, as a tree hanging from the pelvis; the slots of unknowns it reads but
+// does not own are added after the owned ones. Returns each joint's node (-1 none).
+std::vector<int> add_nodes(const RefineModel& model, const std::vector<const PendingTerm*>& terms, const Dependencies& depends,
+                           Mask owned_mask, Limb& limb) {
   const KinematicModel& tree = model.kinematics;
   const int n = tree.joint_count();
   std::vector<std::uint8_t> needed(n, 0);
@@ -263,13 +240,16 @@ std::optional<Limb> build_limb(int group, const RefineModel& model, const std::v
     const bool moving = limb.moves_pelvis || ((depends.position[j] | depends.rotation[j]) & owned_mask) != 0;
     (moving ? limb.moving_nodes : limb.fixed_nodes).push_back(node);
   }
-  const std::size_t nodes = limb.nodes.size();
   limb.kinematics = KinematicModel(std::move(node_parents), {}, {}, std::move(rotation_in_world));
   limb.slot_nodes.resize(limb.slots.size());
-  for (std::size_t node = 0; node < nodes; ++node) {
+  for (std::size_t node = 0; node < limb.nodes.size(); ++node) {
     if (limb.nodes[node].slot >= 0) limb.slot_nodes[limb.nodes[node].slot] = static_cast<int>(node);
   }
+  return node_of;
+}
 
+// The residuals, their joints turned into the limb's nodes.
+void add_terms(const std::vector<const PendingTerm*>& terms, const std::vector<int>& node_of, Limb& limb) {
   for (const PendingTerm* term : terms) {
     switch (term->kind) {
       case PendingTerm::Kind::direction: {
@@ -293,6 +273,36 @@ std::optional<Limb> build_limb(int group, const RefineModel& model, const std::v
       }
     }
   }
+}
+
+// The limb of one group: its unknowns (owned slots), the residuals that go to it (each to the last
+// limb in solve order among those owning an unknown it depends on; feet, which also depend on dp,
+// at least to the lower body), and the nodes they read. None when it has neither.
+std::optional<Limb> build_limb(int group, const RefineModel& model, const std::vector<int>& group_of_unknown,
+                               const std::vector<PendingTerm>& pending, const Dependencies& depends) {
+  Limb limb;
+  limb.name = kLimbNames[group];
+  limb.moves_pelvis = group == lower_body;
+  limb.length_scale = model.length_scale;
+  Mask owned_mask = 0;
+  for (std::size_t u = 0; u < model.unknown_joints.size(); ++u) {
+    if (group_of_unknown[u] == group) {
+      limb.slots.push_back(static_cast<int>(u));
+      owned_mask |= Mask(1) << u;
+    }
+  }
+  limb.owned = static_cast<int>(limb.slots.size());
+  std::vector<const PendingTerm*> terms;
+  for (const PendingTerm& term : pending) {
+    int last = lower_body;
+    for (std::size_t u = 0; u < model.unknown_joints.size(); ++u) {
+      if (term.mask & (Mask(1) << u)) last = std::max(last, group_of_unknown[u]);
+    }
+    if (last == group) terms.push_back(&term);
+  }
+  if (terms.empty() && limb.owned == 0) return std::nullopt;
+  const std::vector<int> node_of = add_nodes(model, terms, depends, owned_mask, limb);
+  add_terms(terms, node_of, limb);
   return limb;
 }
 
