@@ -467,10 +467,15 @@ TEST(ExtremesTest, HundredThousandFramesDoNotDriftFast) {
               result.report.timings.transfer, peak_rss_mib());
   expect_finite_unit(result.transfer.clip, "100k fast");
   const int last_full_tile = kLongClipFrames / walk.period - 1;
-  // 3.8 km from the start, the rounding of the root's position is 4e-13 m. The root travels the
-  // scaled stride, in the levelled world the source is read in (contacts.h).
-  const Vector3d advance = result.rig.scale * (result.source_feet.levelling * walk.stride);
-  expect_repeats(result, walk, 0, last_full_tile, advance, 1e-9, "100k fast");
+  // The root follows the planted feet (transfer.h): each tile it travels what the legs walk, the
+  // scaled stride less what they would slide, the same amount every tile. The first and last
+  // tiles are smoothed against the clip's ends; the second and the second last agree 3.8 km apart
+  // up to the rounding of the summed steps.
+  const Vector3d advance = pelvis_position(result, 2 * walk.period) - pelvis_position(result, walk.period);
+  const Vector3d scaled_stride = result.rig.scale * (result.source_feet.levelling * walk.stride);
+  EXPECT_GT(advance.norm(), 0.7 * scaled_stride.norm());
+  EXPECT_LT(advance.norm(), 1.01 * scaled_stride.norm());
+  expect_repeats(result, walk, 1, last_full_tile - 1, advance, 1e-6, "100k fast");
   expect_limbs_under(result.report.result_metrics, 2.0, "100k fast");
 }
 
