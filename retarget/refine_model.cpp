@@ -131,7 +131,7 @@ struct Dependencies {
   std::vector<std::uint8_t> reachable;
   std::vector<Mask> position, rotation;
 
-  Dependencies(const RefineModel& model) {
+  explicit Dependencies(const RefineModel& model) {
     const int n = model.kinematics.joint_count();
     reachable.assign(n, 0);
     position.assign(n, 0);

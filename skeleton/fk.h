@@ -109,9 +109,8 @@ struct KinematicModel {
 
   KinematicModel() = default;
   // An empty `rest` is identities, an empty `order` 0, 1, ..., n-1 and an empty
-  // `rotation_in_world` all 0. Throws
-  // std::invalid_argument when the sizes differ (naming both), a parent is out of range, or
-  // `order` is not every joint once with each after its parent.
+  // `rotation_in_world` all 0. Throws std::invalid_argument when the sizes differ (naming both),
+  // a parent is out of range, or `order` is not every joint once with each after its parent.
   KinematicModel(std::vector<int> parents, std::vector<RigidTransform<double>> rest, std::vector<int> order = {},
                  std::vector<std::uint8_t> rotation_in_world = {});
 
@@ -122,7 +121,7 @@ struct KinematicModel {
 template <class T, class Rotation = Eigen::Matrix<T, 3, 3>>
 struct KinematicData {
   using Transform = RigidTransform<T, Rotation>;
-  Transform base;               // the frame the roots hang from
+  Transform base;                // the frame the roots hang from
   std::vector<Transform> local;  // from the model's rest until the caller poses it
   std::vector<Transform> world;
 
