@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <span>
 #include <stdexcept>
 #include <string>
 
@@ -124,6 +126,14 @@ Eigen::Quaterniond pitched_toe(const Eigen::Quaterniond& world, const Eigen::Vec
   return (Eigen::AngleAxisd(theta, axis) * world).normalized();
 }
 
+// How far the toe of a one-joint target foot should stand above its joint (transfer.h):
+//   (g_toe - g_joint) + s ((z_ball - g_ball) - (z_ankle - g_ankle))_S.
+double toe_rise(const Foot& target, const Foot& source, std::span<const Eigen::Vector3d> source_position, double s) {
+  const double ball_above_ankle = (source_position[source.joints[1]].z() - source.ground_heights[1]) -
+                                  (source_position[source.joints[0]].z() - source.ground_heights[0]);
+  return target.toe_ground_height - target.ground_heights[0] + s * ball_above_ankle;
+}
+
 }  // namespace
 
 FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : rig_(rig), target_feet_(target_feet) {
@@ -141,13 +151,11 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
   for (int j = 0; j < n; ++j) {
     JointRule& rule = rules_[j];
     rule.parent = target.parent(j);
-    rule.rest_local = target.rest_rotations()[j];
-    rule.offset = target.rest_offsets()[j];
+    rule.local = {target.rest_rotations()[j], target.rest_offsets()[j]};
   }
   const auto attach = [&](JointRule& rule, int joint, int anchor) {
-    rule.placement = JointRule::Placement::attached;
     rule.anchor = anchor;
-    rule.anchor_offset = rest_rotation[anchor].conjugate() * (rest[joint].translation - rest[anchor].translation);
+    rule.local.translation = rest_rotation[anchor].conjugate() * (rest[joint].translation - rest[anchor].translation);
   };
   for (int c : rig.paired) {
     const int j = rig.target_joint(c);
@@ -193,13 +201,13 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
     const Foot& foot = target_feet_[side];
     if (foot.has_toe && rules_[foot.joints[0]].rotation == JointRule::Rotation::driven) rules_[foot.joints[0]].toe_side = side;
   }
-  int root = target_pelvis;
-  while (target.parent(root) >= 0) root = target.parent(root);
-  rules_[root].placement = JointRule::Placement::root;
-  rules_[root].root_to_pelvis = rest_rotation[root].conjugate() * (rest[target_pelvis].translation - rest[root].translation);
+  root_ = target_pelvis;
+  while (target.parent(root_) >= 0) root_ = target.parent(root_);
+  root_to_pelvis_ = rest_rotation[root_].conjugate() * (rest[target_pelvis].translation - rest[root_].translation);
 
   // Evaluation order: depth-first over the dependencies (parent, anchor); a joint met again
   // while still open is on a cycle.
+  std::vector<int> order;
   std::vector<int> state(n, 0);  // 0 new, 1 open, 2 done
   std::vector<std::pair<int, int>> stack;  // joint, next dependency to visit
   for (int start = 0; start < n; ++start) {
@@ -221,15 +229,21 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
         continue;
       }
       state[joint] = 2;
-      order_.push_back(joint);
+      order.push_back(joint);
       stack.pop_back();
     }
   }
 
+  std::vector<int> hung_from(n);
+  std::vector<std::uint8_t> held(n);  // and a root's: its local rotation is its world one, exactly
   for (int j = 0; j < n; ++j) {
-    if (rules_[j].placement != JointRule::Placement::offset) translated_joints_.push_back(j);
+    const JointRule& rule = rules_[j];
+    hung_from[j] = j == root_ ? -1 : rule.anchor >= 0 ? rule.anchor : rule.parent;
+    held[j] = rule.rotation != JointRule::Rotation::rest || hung_from[j] < 0;
+    if (j == root_ || rule.anchor >= 0) translated_joints_.push_back(j);
   }
-  root_track_ = static_cast<int>(std::find(translated_joints_.begin(), translated_joints_.end(), root) - translated_joints_.begin());
+  placement_ = KinematicModel(std::move(hung_from), {}, std::move(order), std::move(held));
+  root_track_ = static_cast<int>(std::find(translated_joints_.begin(), translated_joints_.end(), root_) - translated_joints_.begin());
 
   // Source joints to pose: everything the rules and the feet read, with their ancestors.
   std::vector<bool> needed(rig.source.joint_count(), false);
@@ -252,9 +266,48 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
   }
 }
 
+// One run's buffers, reused from frame to frame.
+struct FastTransfer::Workspace {
+  QuaternionKinematicData<double> source;  // Q_S, p_S: the clip's frame from the levelled base (contacts.h)
+  QuaternionKinematicData<double> target;  // W(t), P(t) over the placement tree
+  std::vector<Eigen::Vector3d> source_position, target_position;  // p_S, P(t) again, as contacts.h reads them
+  Eigen::Vector3d source_rest_pelvis;      // p_S^rest(pelvis), levelled
+  std::vector<double> gaps;                // g(foot, t) at 2 t + side
+  std::vector<Eigen::Vector2d> steps;      // e(foot, t) at 2 t + side, from t to t + 1
+  // Per foot, its support point (the lowest, contacts.h) in the last frame: which and where.
+  std::array<int, 2> last_target_point{}, last_source_joint{};
+  std::array<Eigen::Vector3d, 2> last_target_support, last_source_support;
+
+  Workspace(const FastTransfer& transfer, const Clip& clip, const Eigen::Quaterniond& levelling)
+      : source(clip.skeleton.kinematics()),
+        target(transfer.placement_),
+        source_position(clip.joint_count()),
+        target_position(transfer.placement_.joint_count()),
+        source_rest_pelvis(levelling * transfer.rig_.source_rest_pelvis),
+        gaps(2 * std::size_t(clip.frame_count())),
+        steps(2 * std::size_t(clip.frame_count()), Eigen::Vector2d::Zero()) {
+    source.base.rotation = levelling;
+    for (std::size_t j = 0; j < transfer.rules_.size(); ++j) target.local[j] = transfer.rules_[j].local;
+  }
+};
+
 TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, const FootContacts& contacts) const {
-  const Skeleton& source_skeleton = rig_.source;
-  if (source.skeleton.names() != source_skeleton.names() || source.skeleton.parents() != source_skeleton.parents()) {
+  check_source(source, contacts);
+  TransferResult result{empty_output(source)};
+  Workspace work(*this, source, source_feet.levelling);
+  for (int f = 0; f < source.frame_count(); ++f) {
+    pose_source(source, f, work);
+    place_target(source_feet, work);
+    write_frame(f, work, result.clip);
+    measure_feet(f, source_feet, work);
+  }
+  move_root(work, contacts, result);
+  return result;
+}
+
+// Throws unless the clip is on rig.source's skeleton, finite, and as long as `contacts`.
+void FastTransfer::check_source(const Clip& source, const FootContacts& contacts) const {
+  if (source.skeleton.names() != rig_.source.names() || source.skeleton.parents() != rig_.source.parents()) {
     throw std::invalid_argument("the source clip's skeleton is not the one the retargeting rig was built for");
   }
   try {
@@ -262,162 +315,151 @@ TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, co
   } catch (const std::invalid_argument& error) {
     throw std::invalid_argument(std::string("source clip: ") + error.what());
   }
-  const int frames = source.frame_count();
-  if (contacts.frame_count() != frames) {
+  if (contacts.frame_count() != source.frame_count()) {
     throw std::invalid_argument("contacts cover " + std::to_string(contacts.frame_count()) + " frames, the clip has " +
-                                std::to_string(frames));
+                                std::to_string(source.frame_count()));
   }
-  const int source_joints = source.joint_count();
-  const int target_joints = rig_.target.joint_count();
-  const double s = rig_.scale;
-  const int source_pelvis = rig_.source_joint(canonical::pelvis);
+}
 
-  // Where each posed source joint's local translation comes from: its rest offset, or the clip.
-  std::vector<int> translation_track(source_joints, -1);
-  for (std::size_t k = 0; k < source.translated_joints.size(); ++k) translation_track[source.translated_joints[k]] = static_cast<int>(k);
-  const std::size_t source_tracks = source.translated_joints.size();
-  const std::vector<Eigen::Vector3d>& source_offsets = source_skeleton.rest_offsets();
-  // The source is posed in its levelled world (contacts.h), its rest pelvis too.
-  const Eigen::Quaterniond& levelling = source_feet.levelling;
-  const Eigen::Vector3d source_rest_pelvis = levelling * rig_.source_rest_pelvis;
-
-  TransferResult result;
-  Clip& out = result.clip;
+// The output clip on the target skeleton at the source's frame rate, sized for its frames.
+Clip FastTransfer::empty_output(const Clip& source) const {
+  Clip out;
   out.skeleton = rig_.target;
   out.fps = source.fps;
   out.translated_joints = translated_joints_;
-  const std::size_t tracks = translated_joints_.size();
-  out.rotations.resize(std::size_t(frames) * target_joints);
-  out.translations.resize(std::size_t(frames) * tracks);
+  out.rotations.resize(std::size_t(source.frame_count()) * rig_.target.joint_count());
+  out.translations.resize(std::size_t(source.frame_count()) * translated_joints_.size());
+  return out;
+}
 
-  std::vector<Eigen::Quaterniond> source_rotation(source_joints);
-  std::vector<Eigen::Vector3d> source_position(source_joints);
-  std::vector<Eigen::Quaterniond> world(target_joints);
-  std::vector<Eigen::Vector3d> position(target_joints);
-  std::vector<double> gaps(2 * std::size_t(frames));  // g(foot, t) of transfer.h
-  // Per foot: the support points (lowest) of the last frame, target and source, and the steps
-  // since (slide_corrections).
-  std::vector<Eigen::Vector2d> steps(2 * std::size_t(frames), Eigen::Vector2d::Zero());
-  std::array<int, 2> last_target_point{}, last_source_joint{};
-  std::array<Eigen::Vector3d, 2> last_target_support, last_source_support;
+// Q_S(t), p_S(t) of the source joints the rules and the feet read: forward kinematics of the
+// clip's frame from the levelled base.
+void FastTransfer::pose_source(const Clip& source, int frame, Workspace& work) const {
+  source.local_pose(frame, work.source.local);
+  forward_kinematics(source.skeleton.kinematics(), work.source, std::span<const int>(source_needed_));
+  for (int k : source_needed_) work.source_position[k] = work.source.world[k].translation;
+}
 
-  for (int f = 0; f < frames; ++f) {
-    const Eigen::Quaterniond* local_rotation = &source.rotations[std::size_t(f) * source_joints];
-    const Eigen::Vector3d* local_translation = source.translations.data() + std::size_t(f) * source_tracks;
-    for (int k : source_needed_) {
-      const int p = source_skeleton.parent(k);
-      const Eigen::Vector3d& step = translation_track[k] >= 0 ? local_translation[translation_track[k]] : source_offsets[k];
-      if (p < 0) {
-        source_rotation[k] = levelling * local_rotation[k];
-        source_position[k] = levelling * step;
-      } else {
-        source_rotation[k] = source_rotation[p] * local_rotation[k];
-        source_position[k] = source_position[p] + source_rotation[p] * step;
-      }
-    }
-    const Eigen::Vector3d& pelvis_source = source_position[source_pelvis];
-    const Eigen::Vector3d pelvis_target = target_rest_pelvis_ + s * (pelvis_source - source_rest_pelvis);
-
-    for (int j : order_) {
-      const JointRule& rule = rules_[j];
-      const int p = rule.parent;
-      switch (rule.rotation) {
-        case JointRule::Rotation::rest:
-          world[j] = p < 0 ? rule.rest_local : world[p] * rule.rest_local;
-          break;
-        case JointRule::Rotation::driven: {
-          const Eigen::Quaterniond& reference = source_rotation[rule.reference];
-          if (rule.branch_count > 0) {
-            const Eigen::Quaterniond change = reference * rig_.source_aligned_world[rule.reference].conjugate();
-            Eigen::Matrix3d b = kBranchTwistWeight * change.toRotationMatrix();
-            for (int k = rule.branch_first; k < rule.branch_first + rule.branch_count; ++k) {
-              const BranchChord& chord = branch_chords_[k];
-              const Eigen::Vector3d now = (source_position[chord.to] - source_position[chord.from]).normalized();
-              b.noalias() += now * chord.aligned_direction.transpose();
-            }
-            world[j] = Eigen::Quaterniond(rotation_factor(b, change)) * rest_rotation_[j];
-            if (rule.chord_from >= 0) {  // the spine continuation, swung exact
-              const Eigen::Vector3d wanted = (source_position[rule.chord_to] - source_position[rule.chord_from]).normalized();
-              world[j] = shortest_rotation(world[j] * rule.chord_rest, wanted) * world[j];
-            }
-          } else if (rule.chord_from >= 0) {
-            const Eigen::Vector3d carried = reference * rule.chord_rest;
-            const Eigen::Vector3d wanted = (source_position[rule.chord_to] - source_position[rule.chord_from]).normalized();
-            world[j] = shortest_rotation(carried, wanted) * reference * rule.reference_to_joint;
-          } else {
-            world[j] = reference * rule.reference_to_joint;
-          }
-          break;
-        }
-        case JointRule::Rotation::follower:
-          world[j] = world[rule.anchor] * rule.anchor_to_joint;
-          break;
-      }
+// W(t), P(t) of every target joint, joint by joint down the placement tree: a held rotation by
+// its rule, the root put where the pelvis goes (before dz and c),
+//   P(root) = P*(t) - W(root) W^rest(root)^-1 (P^rest(pelvis) - P^rest(root)),
+//   P*(t)   = P_T^rest(pelvis) + s (p_S(pelvis, t) - p_S^rest(pelvis)),
+// then forward kinematics places the joint (and composes a rest rotation with its parent's).
+void FastTransfer::place_target(const Feet& source_feet, Workspace& work) const {
+  const double s = rig_.scale;
+  const Eigen::Vector3d& pelvis_source = work.source_position[rig_.source_joint(canonical::pelvis)];
+  const Eigen::Vector3d pelvis_target = target_rest_pelvis_ + s * (pelvis_source - work.source_rest_pelvis);
+  std::vector<QuaternionTransform<double>>& local = work.target.local;
+  const std::span<const int> order(placement_.order);
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const int j = order[i];
+    const JointRule& rule = rules_[j];
+    if (rule.rotation == JointRule::Rotation::driven) {
+      local[j].rotation = driven_rotation(j, work);
       if (rule.toe_side >= 0 && source_feet[rule.toe_side].joints.size() == 2) {
-        const Foot& source_foot = source_feet[rule.toe_side];
         const Foot& foot = target_feet_[rule.toe_side];
-        const double ball_above_ankle = (source_position[source_foot.joints[1]].z() - source_foot.ground_heights[1]) -
-                                        (source_position[source_foot.joints[0]].z() - source_foot.ground_heights[0]);
-        world[j] = pitched_toe(world[j], foot.toe, foot.toe_ground_height - foot.ground_heights[0] + s * ball_above_ankle);
+        const double rise = toe_rise(foot, source_feet[rule.toe_side], work.source_position, s);
+        local[j].rotation = pitched_toe(local[j].rotation, foot.toe, rise);
       }
-      switch (rule.placement) {
-        case JointRule::Placement::offset:
-          position[j] = p < 0 ? rule.offset : Eigen::Vector3d(position[p] + world[p] * rule.offset);
-          break;
-        case JointRule::Placement::root:
-          position[j] = pelvis_target - world[j] * rule.root_to_pelvis;
-          break;
-        case JointRule::Placement::attached:
-          position[j] = position[rule.anchor] + world[rule.anchor] * rule.anchor_offset;
-          break;
-      }
+    } else if (rule.rotation == JointRule::Rotation::follower) {
+      local[j].rotation = work.target.world[rule.anchor].rotation * rule.anchor_to_joint;
     }
-
-    // Local rotations, sign-continuous; translations of the positioned joints.
-    Eigen::Quaterniond* out_rotation = &out.rotations[std::size_t(f) * target_joints];
-    const Eigen::Quaterniond* previous = f > 0 ? out_rotation - target_joints : nullptr;
-    for (int j = 0; j < target_joints; ++j) {
-      const int p = rules_[j].parent;
-      Eigen::Quaterniond local = p < 0 ? world[j] : world[p].conjugate() * world[j];
-      local.normalize();
-      const double reference_sign = previous ? local.dot(previous[j]) : local.w();
-      if (reference_sign < 0) local.coeffs() = -local.coeffs();
-      out_rotation[j] = local;
-    }
-    Eigen::Vector3d* out_translation = out.translations.data() + std::size_t(f) * tracks;
-    for (std::size_t t = 0; t < tracks; ++t) {
-      const int j = translated_joints_[t];
-      const int p = rules_[j].parent;
-      out_translation[t] = p < 0 ? position[j] : Eigen::Vector3d(world[p].conjugate() * (position[j] - position[p]));
-    }
-
-    for (int side = 0; side < 2; ++side) {
-      const Foot& target_foot = target_feet_[side];
-      const Foot& source_foot = source_feet[side];
-      const Eigen::Matrix3d first_rotation = world[target_foot.joints[0]].toRotationMatrix();
-      gaps[2 * std::size_t(f) + side] = s * foot_clearance(source_foot, source_position) -
-                                        foot_clearance(target_foot, position, first_rotation);
-      if (f > 0) {
-        const Eigen::Vector3d target_step = target_foot.point(last_target_point[side], position, first_rotation) - last_target_support[side];
-        const Eigen::Vector3d source_step = source_position[source_foot.joints[last_source_joint[side]]] - last_source_support[side];
-        steps[2 * std::size_t(f - 1) + side] = (target_step - s * source_step).head<2>();
-      }
-      last_target_point[side] = lowest_foot_point(target_foot, position, first_rotation);
-      last_source_joint[side] = lowest_foot_joint(source_foot, source_position);
-      last_target_support[side] = target_foot.point(last_target_point[side], position, first_rotation);
-      last_source_support[side] = source_position[source_foot.joints[last_source_joint[side]]];
-    }
+    if (j == root_) local[j].translation = pelvis_target - local[j].rotation * root_to_pelvis_;
+    forward_kinematics(placement_, work.target, order.subspan(i, 1));
   }
+  for (std::size_t j = 0; j < local.size(); ++j) work.target_position[j] = work.target.world[j].translation;
+}
 
-  const std::vector<double> offsets = floor_offsets(gaps, contacts, source.fps);
-  const std::vector<Eigen::Vector2d> slides = slide_corrections(steps, contacts, source.fps);
+// W(t) of a driven joint (transfer.h): D(t) W^rest = Q_S(t) Q_S^al^-1 W^rest, swung onto the
+// source chord for a chain bone; R(t) W^rest for a branch joint, R(t) the rotation factor of
+// B = sum_k u_k(t) u_k^al^T + eps D(t), swung onto its spine continuation's chord if it has one.
+Eigen::Quaterniond FastTransfer::driven_rotation(int joint, const Workspace& work) const {
+  const JointRule& rule = rules_[joint];
+  const Eigen::Quaterniond& reference = work.source.world[rule.reference].rotation;
+  const auto chord = [&](int from, int to) -> Eigen::Vector3d {
+    return (work.source_position[to] - work.source_position[from]).normalized();
+  };
+  if (rule.branch_count > 0) {
+    const Eigen::Quaterniond change = reference * rig_.source_aligned_world[rule.reference].conjugate();
+    Eigen::Matrix3d b = kBranchTwistWeight * change.toRotationMatrix();
+    for (int k = rule.branch_first; k < rule.branch_first + rule.branch_count; ++k) {
+      const BranchChord& branch = branch_chords_[k];
+      b.noalias() += chord(branch.from, branch.to) * branch.aligned_direction.transpose();
+    }
+    Eigen::Quaterniond world = Eigen::Quaterniond(rotation_factor(b, change)) * rest_rotation_[joint];
+    if (rule.chord_from >= 0) world = shortest_rotation(world * rule.chord_rest, chord(rule.chord_from, rule.chord_to)) * world;
+    return world;
+  }
+  if (rule.chord_from >= 0) {
+    return shortest_rotation(reference * rule.chord_rest, chord(rule.chord_from, rule.chord_to)) * reference * rule.reference_to_joint;
+  }
+  return reference * rule.reference_to_joint;
+}
+
+// Frame `frame` of the output: local rotations W(parent)^-1 W(t), each of the sign nearer the
+// previous frame's (w >= 0 in the first), and the translated joints' W(parent)^-1 (P(t) - P(parent)).
+void FastTransfer::write_frame(int frame, const Workspace& work, Clip& out) const {
+  const int joints = static_cast<int>(rules_.size());
+  const std::vector<QuaternionTransform<double>>& world = work.target.world;
+  Eigen::Quaterniond* out_rotation = &out.rotations[std::size_t(frame) * joints];
+  const Eigen::Quaterniond* previous = frame > 0 ? out_rotation - joints : nullptr;
+  for (int j = 0; j < joints; ++j) {
+    const int p = rules_[j].parent;
+    Eigen::Quaterniond local = p < 0 ? world[j].rotation : world[p].rotation.conjugate() * world[j].rotation;
+    local.normalize();
+    const double reference_sign = previous ? local.dot(previous[j]) : local.w();
+    if (reference_sign < 0) local.coeffs() = -local.coeffs();
+    out_rotation[j] = local;
+  }
+  const std::size_t tracks = translated_joints_.size();
+  Eigen::Vector3d* out_translation = out.translations.data() + std::size_t(frame) * tracks;
+  for (std::size_t t = 0; t < tracks; ++t) {
+    const int j = translated_joints_[t];
+    const int p = rules_[j].parent;
+    out_translation[t] = p < 0 ? world[j].translation
+                               : Eigen::Vector3d(world[p].rotation.conjugate() * (world[j].translation - world[p].translation));
+  }
+}
+
+// g(foot, t) and, from the second frame on, e(foot, t - 1) of transfer.h, per foot; its support
+// point is kept for the next frame's step.
+void FastTransfer::measure_feet(int frame, const Feet& source_feet, Workspace& work) const {
+  const double s = rig_.scale;
+  const std::vector<Eigen::Vector3d>& position = work.target_position;
+  const std::vector<Eigen::Vector3d>& source_position = work.source_position;
+  for (int side = 0; side < 2; ++side) {
+    const Foot& target_foot = target_feet_[side];
+    const Foot& source_foot = source_feet[side];
+    const Eigen::Matrix3d first_rotation = work.target.world[target_foot.joints[0]].rotation.toRotationMatrix();
+    work.gaps[2 * std::size_t(frame) + side] = s * foot_clearance(source_foot, source_position) -
+                                               foot_clearance(target_foot, position, first_rotation);
+    if (frame > 0) {
+      const Eigen::Vector3d target_step =
+          target_foot.point(work.last_target_point[side], position, first_rotation) - work.last_target_support[side];
+      const Eigen::Vector3d source_step =
+          source_position[source_foot.joints[work.last_source_joint[side]]] - work.last_source_support[side];
+      work.steps[2 * std::size_t(frame - 1) + side] = (target_step - s * source_step).head<2>();
+    }
+    work.last_target_point[side] = lowest_foot_point(target_foot, position, first_rotation);
+    work.last_source_joint[side] = lowest_foot_joint(source_foot, source_position);
+    work.last_target_support[side] = target_foot.point(work.last_target_point[side], position, first_rotation);
+    work.last_source_support[side] = source_position[source_foot.joints[work.last_source_joint[side]]];
+  }
+}
+
+// The root moved by c(t) horizontally and dz(t) vertically (transfer.h); floor_offset is dz's mean.
+void FastTransfer::move_root(const Workspace& work, const FootContacts& contacts, TransferResult& result) const {
+  Clip& out = result.clip;
+  const int frames = contacts.frame_count();
+  const std::vector<double> offsets = floor_offsets(work.gaps, contacts, out.fps);
+  const std::vector<Eigen::Vector2d> slides = slide_corrections(work.steps, contacts, out.fps);
+  const std::size_t tracks = translated_joints_.size();
   for (int f = 0; f < frames; ++f) {
     Eigen::Vector3d& root = out.translations[std::size_t(f) * tracks + root_track_];
     root.head<2>() += slides[f];
     root.z() += offsets[f];
     result.floor_offset += offsets[f] / frames;
   }
-  return result;
 }
 
 }  // namespace odyssey::retarget

@@ -108,6 +108,7 @@
 
 #include "retarget/contacts.h"
 #include "retarget/rig.h"
+#include "skeleton/fk.h"
 
 namespace odyssey::retarget {
 
@@ -131,12 +132,12 @@ class FastTransfer {
  private:
   struct JointRule {
     enum class Rotation { rest, driven, follower };
-    enum class Placement { offset, root, attached };
     Rotation rotation = Rotation::rest;
-    Placement placement = Placement::offset;
     int parent = -1;
-    Eigen::Quaterniond rest_local = Eigen::Quaterniond::Identity();
-    Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+    // In the placement tree (placement_): the rest local rotation (a held rotation is set per
+    // frame instead) and the offset from the joint it hangs from, its parent's frame or, attached,
+    // W^rest(A)^-1 (P^rest - P^rest(A)).
+    QuaternionTransform<double> local;
     int reference = -1;  // driven: S(a)
     Eigen::Quaterniond reference_to_joint = Eigen::Quaterniond::Identity();  // Q_S^al(S(a))^-1 W^rest
     // Driven chain bones and spine continuations: the segment's source joints, and v in the frame
@@ -146,8 +147,6 @@ class FastTransfer {
     int branch_first = 0, branch_count = 0;  // driven branch joints: their chords in branch_chords_
     int anchor = -1;  // follower, attached: A
     Eigen::Quaterniond anchor_to_joint = Eigen::Quaterniond::Identity();  // W^rest(A)^-1 W^rest
-    Eigen::Vector3d anchor_offset = Eigen::Vector3d::Zero();  // W^rest(A)^-1 (P^rest - P^rest(A))
-    Eigen::Vector3d root_to_pelvis = Eigen::Vector3d::Zero();    // root: W^rest(root)^-1 (P^rest(pelvis) - P^rest(root))
     int toe_side = -1;  // a one-joint target foot with a toe (contacts.h): its side
   };
 
@@ -156,14 +155,30 @@ class FastTransfer {
     Eigen::Vector3d aligned_direction;  // u^al, world
   };
 
+  struct Workspace;  // one run's buffers (transfer.cpp)
+
+  void check_source(const Clip& source, const FootContacts& contacts) const;
+  Clip empty_output(const Clip& source) const;
+  void pose_source(const Clip& source, int frame, Workspace& work) const;
+  void place_target(const Feet& source_feet, Workspace& work) const;
+  Eigen::Quaterniond driven_rotation(int joint, const Workspace& work) const;
+  void write_frame(int frame, const Workspace& work, Clip& out) const;
+  void measure_feet(int frame, const Feet& source_feet, Workspace& work) const;
+  void move_root(const Workspace& work, const FootContacts& contacts, TransferResult& result) const;
+
   const RetargetRig& rig_;
   Feet target_feet_;
   std::vector<JointRule> rules_;
   std::vector<BranchChord> branch_chords_;
   std::vector<Eigen::Quaterniond> rest_rotation_;  // W^rest of every target joint
-  std::vector<int> order_;              // evaluation order: parents and anchors first
+  // The target's positions as forward kinematics: a joint hangs from its parent, an attached one
+  // (followers too) from its anchor A, the root from nothing, each after what it hangs from and
+  // its anchor in `order`; every rotation but a rest one below a parent is held in world.
+  KinematicModel placement_;
   std::vector<int> translated_joints_;  // output clip's animated translations, ascending
+  int root_ = 0;                        // the target joint placed by the pelvis (transfer.h)
   int root_track_ = 0;                  // index of the root in translated_joints_
+  Eigen::Vector3d root_to_pelvis_;      // W^rest(root)^-1 (P^rest(pelvis) - P^rest(root))
   std::vector<int> source_needed_;      // source joints to pose each frame, parents first
   Eigen::Vector3d target_rest_pelvis_;
 };
