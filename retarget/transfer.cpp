@@ -138,15 +138,26 @@ double toe_rise(const Foot& target, const Foot& source, std::span<const Eigen::V
 
 FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : rig_(rig), target_feet_(target_feet) {
   const Skeleton& target = rig.target;
-  const int n = target.joint_count();
   const std::vector<RigidTransform<double>> rest = target.rest_world();
-  rest_rotation_.resize(n);
-  for (int j = 0; j < n; ++j) rest_rotation_[j] = Eigen::Quaterniond(rest[j].rotation).normalized();
-  const std::vector<Eigen::Quaterniond>& rest_rotation = rest_rotation_;
+  for (const RigidTransform<double>& joint : rest) rest_rotation_.push_back(Eigen::Quaterniond(joint.rotation).normalized());
   const int target_pelvis = rig.target_joint(canonical::pelvis);
-  const int source_pelvis = rig.source_joint(canonical::pelvis);
   target_rest_pelvis_ = rest[target_pelvis].translation;
+  root_ = target_pelvis;
+  while (target.parent(root_) >= 0) root_ = target.parent(root_);
+  root_to_pelvis_ = rest_rotation_[root_].conjugate() * (rest[target_pelvis].translation - rest[root_].translation);
+  make_rules(rest);
+  make_placement(placement_order());
+  source_needed_ = source_joints_to_pose();
+}
 
+// Every target joint's rule (transfer.h): rest by default; driven for a paired joint, with its
+// chord or branch chords and, where a segment ends at it detached from its parent, attached to
+// that segment's start; followers attached to their anchor; a driven one-joint foot with a toe.
+void FastTransfer::make_rules(const std::vector<RigidTransform<double>>& rest) {
+  const RetargetRig& rig = rig_;
+  const Skeleton& target = rig.target;
+  const int n = target.joint_count();
+  const std::vector<Eigen::Quaterniond>& rest_rotation = rest_rotation_;
   rules_.resize(n);
   for (int j = 0; j < n; ++j) {
     JointRule& rule = rules_[j];
@@ -201,12 +212,13 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
     const Foot& foot = target_feet_[side];
     if (foot.has_toe && rules_[foot.joints[0]].rotation == JointRule::Rotation::driven) rules_[foot.joints[0]].toe_side = side;
   }
-  root_ = target_pelvis;
-  while (target.parent(root_) >= 0) root_ = target.parent(root_);
-  root_to_pelvis_ = rest_rotation[root_].conjugate() * (rest[target_pelvis].translation - rest[root_].translation);
+}
 
-  // Evaluation order: depth-first over the dependencies (parent, anchor); a joint met again
-  // while still open is on a cycle.
+// Evaluation order: depth-first over the dependencies (parent, anchor); a joint met again while
+// still open is on a cycle.
+std::vector<int> FastTransfer::placement_order() const {
+  const Skeleton& target = rig_.target;
+  const int n = target.joint_count();
   std::vector<int> order;
   std::vector<int> state(n, 0);  // 0 new, 1 open, 2 done
   std::vector<std::pair<int, int>> stack;  // joint, next dependency to visit
@@ -233,7 +245,13 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
       stack.pop_back();
     }
   }
+  return order;
+}
 
+// The placement tree (transfer.h) in `order`, and the output clip's translated joints: the root
+// and every attached joint.
+void FastTransfer::make_placement(std::vector<int> order) {
+  const int n = static_cast<int>(rules_.size());
   std::vector<int> hung_from(n);
   std::vector<std::uint8_t> held(n);  // and a root's: its local rotation is its world one, exactly
   for (int j = 0; j < n; ++j) {
@@ -244,8 +262,12 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
   }
   placement_ = KinematicModel(std::move(hung_from), {}, std::move(order), std::move(held));
   root_track_ = static_cast<int>(std::find(translated_joints_.begin(), translated_joints_.end(), root_) - translated_joints_.begin());
+}
 
-  // Source joints to pose: everything the rules and the feet read, with their ancestors.
+// Source joints to pose: everything the rules and the feet read, with their ancestors, ascending.
+std::vector<int> FastTransfer::source_joints_to_pose() const {
+  const RetargetRig& rig = rig_;
+  const int source_pelvis = rig.source_joint(canonical::pelvis);
   std::vector<bool> needed(rig.source.joint_count(), false);
   const auto need = [&](int joint) {
     for (int k = joint; k >= 0 && !needed[k]; k = rig.source.parent(k)) needed[k] = true;
@@ -261,9 +283,11 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
       if (rig.source_map.mapped(c)) need(rig.source_joint(c));
     }
   }
+  std::vector<int> joints;
   for (int k = 0; k < rig.source.joint_count(); ++k) {
-    if (needed[k]) source_needed_.push_back(k);
+    if (needed[k]) joints.push_back(k);
   }
+  return joints;
 }
 
 // One run's buffers, reused from frame to frame.

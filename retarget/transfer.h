@@ -157,6 +157,11 @@ class FastTransfer {
 
   struct Workspace;  // one run's buffers (transfer.cpp)
 
+  void make_rules(const std::vector<RigidTransform<double>>& rest);
+  std::vector<int> placement_order() const;
+  void make_placement(std::vector<int> order);
+  std::vector<int> source_joints_to_pose() const;
+
   void check_source(const Clip& source, const FootContacts& contacts) const;
   Clip empty_output(const Clip& source) const;
   void pose_source(const Clip& source, int frame, Workspace& work) const;
