@@ -156,15 +156,15 @@ std::unique_ptr<LimbSolver> make_limb_solver(const Limb& limb, const RefineWeigh
   }
 }
 
-// Accurate: one limb of one frame of a window, over Ceres parameter blocks: dp (3, when the limb
+// Accurate: one limb of one frame of a span, over Ceres parameter blocks: dp (3, when the limb
 // moves the pelvis), then one unit quaternion (x, y, z, w) per owned slot (held slots keep the
 // frame's value). Derivatives are taken 16 at a time (the lower body's 3 + 6 x 4 parameters in
 // two passes).
-constexpr int kWindowStride = 16;
+constexpr int kSpanStride = 16;
 
-class WindowLimbCost {
+class SpanLimbCost {
  public:
-  WindowLimbCost(const Limb& limb, const RefineWeights& weights, const LimbFrame& frame)
+  SpanLimbCost(const Limb& limb, const RefineWeights& weights, const LimbFrame& frame)
       : limb_(limb), weights_(weights), frame_(frame), work_(limb) {
     work_.plain.load(frame);
     work_.jet.load(frame);
@@ -185,7 +185,7 @@ class WindowLimbCost {
   const Limb& limb_;
   const RefineWeights& weights_;
   const LimbFrame& frame_;
-  mutable LimbWorkPair<ceres::Jet<double, kWindowStride>> work_;
+  mutable LimbWorkPair<ceres::Jet<double, kSpanStride>> work_;
 };
 
 // w fps^2 (c(t+1) - 2 c(t) + c(t-1)), c(t) = q_ref(t)^-1 q(t) the correction of one joint's local
@@ -325,75 +325,66 @@ long balanced_pass(Refinement& refinement, Clip& out, int& window_count) {
   return total;
 }
 
-// Accurate: the lower body (the limb that moves the pelvis) over windows of `window_frames`
-// kept frames with `window_margin` frames of context on each side, every frame's dp and leg
-// rotations in one Ceres problem with the smoothness terms, started from the balanced solution.
-// Neighbouring windows overlap by twice the margin around their common boundary, where their
-// solutions are cross-faded (smoothstep), so no seam is left where one window's solution meets
-// the next's. The upper body keeps its balanced solution: its residuals read neither dp nor the
-// legs, and its corrections (end effectors against directions, no contacts) change smoothly.
-class AccuratePass {
+// Accurate: the lower body (the limb that moves the pelvis) as a space-time problem, started from
+// the balanced solution: every frame's dp and leg rotations of a span of `span_frames` frames in
+// one Ceres problem, with the limb residuals and the smoothness terms. A clip of up to
+// `span_frames` frames is one problem. A longer one is solved span after span: each span also
+// solves the `span_lookahead` frames after it (discarded, so that where a span is cut does not
+// shape its last frames; the next span solves them again), and holds the two frames before it at
+// the previous span's solution, so that the accelerations across the cut are terms of its
+// problem. The result is smooth at a cut because the problem says so; nothing is cross-faded.
+// The upper body keeps its balanced solution: its residuals read neither dp nor the legs, and its
+// corrections (end effectors against directions, no contacts) change smoothly.
+class SpaceTimePass {
  public:
-  AccuratePass(const Refinement& refinement, const Limb& limb)
+  SpaceTimePass(const Refinement& refinement, const Limb& limb)
       : refinement_(refinement),
         options_(refinement.options),
         limb_(limb),
         frames_(refinement.frames()),
-        window_count_((frames_ + options_.window_frames - 1) / options_.window_frames),
-        solutions_(window_count_),
-        iterations_(window_count_, 0) {
+        builder_(refinement.model, refinement.reference, refinement.source, refinement.source_feet),
+        rotation_jump_(options_.weights.smoothness * options_.smoothness_limit / 2),
+        pelvis_jump_(options_.weights.pelvis_smoothness * options_.pelvis_smoothness_limit) {
     solver_options_.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    solver_options_.max_num_iterations = options_.window_iterations;
+    solver_options_.max_num_iterations = options_.span_iterations;
     solver_options_.function_tolerance = 1e-8;
     solver_options_.gradient_tolerance = 1e-12;
     solver_options_.parameter_tolerance = 1e-8;
+    // One thread: Ceres sums costs and gradients per thread in whatever order its threads take
+    // the blocks, which would make the result depend on the thread count and the scheduling.
     solver_options_.num_threads = 1;
     solver_options_.logging_type = ceres::SILENT;
+    const int owned = limb_.owned;
+    rotation_.resize(std::size_t(frames_) * owned);
+    offset_.resize(frames_);
+    for (int f = 0; f < frames_; ++f) {
+      balanced_pose(f, pose_);
+      for (int s = 0; s < owned; ++s) slot(f, s) = pose_.rotation[limb_.slots[s]];
+      offset_[f] = pose_.pelvis_offset;
+    }
   }
 
-  // Solves every window, then writes the kept frames into `out`; returns the solver iterations.
-  long run(Clip& out) {
-    const auto make_state = [this] { return State(*this); };
-    for_each_window(window_count_, options_.threads, make_state, [this](int window, State& state) { solve(window, state); });
-    for_each_window(window_count_, options_.threads, make_state, [&](int window, State& state) { write(window, state, out); });
-    long total = 0;
-    for (long count : iterations_) total += count;
-    return total;
+  // Solves every span in turn and writes every frame into `out`; returns the solver iterations.
+  long run(Clip& out, int& span_count) {
+    const int size = options_.span_frames;
+    span_count = (frames_ + size - 1) / size;
+    long iterations = 0;
+    for (int span = 0; span < span_count; ++span) {
+      const int first = span * size;
+      iterations += solve(first, std::min(frames_, first + size + options_.span_lookahead));
+    }
+    for (int f = 0; f < frames_; ++f) {
+      balanced_pose(f, pose_);
+      for (int s = 0; s < limb_.owned; ++s) pose_.rotation[limb_.slots[s]] = slot(f, s).normalized();
+      pose_.pelvis_offset = offset_[f];
+      builder_.load(f);
+      builder_.write(pose_, refinement_.plan, out);
+    }
+    return iterations;
   }
 
  private:
-  // A window's solution over the frames it solves, [first, end).
-  struct WindowSolution {
-    int first = 0, end = 0;
-    std::vector<Eigen::Quaterniond> rotation;  // [frame - first][owned slot]
-    std::vector<Eigen::Vector3d> offset;       // [frame - first]
-
-    Eigen::Quaterniond& slot(int f, int s, int owned) { return rotation[std::size_t(f - first) * owned + s]; }
-    const Eigen::Quaterniond& slot(int f, int s, int owned) const { return rotation[std::size_t(f - first) * owned + s]; }
-  };
-
-  // A thread's buffers. Cauchy losses rho(s) = b^2 log(1 + s / b^2) on the accelerations:
-  // quadratic below b, where they smooth, and nearly flat far above it, so a genuine jump (the
-  // T-pose reference frame that opens CMU files) is left alone instead of being smeared over its
-  // neighbours. The residuals at the limits: w alpha / 2 (Delta^2 c is about alpha / 2 / fps^2),
-  // and w a for the pelvis (its residuals are in 1.7 m units, as the limit).
-  struct State {
-    FrameBuilder builder;
-    std::vector<LimbFrame> limb_frames;  // [frame in window]
-    FramePose pose;
-    ceres::EigenQuaternionManifold manifold;
-    ceres::CauchyLoss rotation_jump, pelvis_jump;
-
-    explicit State(const AccuratePass& pass)
-        : builder(pass.refinement_.model, pass.refinement_.reference, pass.refinement_.source, pass.refinement_.source_feet),
-          rotation_jump(pass.options_.weights.smoothness * pass.options_.smoothness_limit / 2),
-          pelvis_jump(pass.options_.weights.pelvis_smoothness * pass.options_.pelvis_smoothness_limit) {}
-  };
-
-  std::pair<int, int> kept_range(int window) const {
-    const int size = options_.window_frames;
-    return {window * size, std::min(frames_, (window + 1) * size)};
-  }
+  Eigen::Quaterniond& slot(int f, int s) { return rotation_[std::size_t(f) * limb_.owned + s]; }
 
   // The balanced pass's solution of frame f.
   void balanced_pose(int f, FramePose& pose) const {
@@ -403,115 +394,76 @@ class AccuratePass {
     pose.pelvis_offset = refinement_.solved_offset[f];
   }
 
-  void solve(int window, State& state) {
-    const auto [kept_first, kept_end] = kept_range(window);
-    WindowSolution& solution = solutions_[window];
-    solution.first = std::max(0, kept_first - options_.window_margin);
-    solution.end = std::min(frames_, kept_end + options_.window_margin);
-    const int count = solution.end - solution.first;
-    const int owned = limb_.owned;
-    state.limb_frames.resize(count);
-    solution.rotation.resize(std::size_t(count) * owned);
-    solution.offset.resize(count);
-    for (int f = solution.first; f < solution.end; ++f) {
-      state.builder.load(f);
-      balanced_pose(f, state.pose);
-      for (int s = 0; s < owned; ++s) solution.slot(f, s, owned) = state.pose.rotation[limb_.slots[s]];
-      solution.offset[f - solution.first] = state.pose.pelvis_offset;
-      state.builder.fill(limb_, state.pose, refinement_.plan, state.limb_frames[f - solution.first]);
+  // Solves frames [first, end) with the two before `first` held; returns the iterations.
+  long solve(int first, int end) {
+    const int count = end - first;
+    limb_frames_.resize(count);
+    for (int f = first; f < end; ++f) {
+      builder_.load(f);
+      balanced_pose(f, pose_);
+      for (int s = 0; s < limb_.owned; ++s) pose_.rotation[limb_.slots[s]] = slot(f, s);
+      pose_.pelvis_offset = offset_[f];
+      builder_.fill(limb_, pose_, refinement_.plan, limb_frames_[f - first]);
     }
-
     ceres::Problem::Options problem_options;
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);
-    add_limb_costs(problem, solution, state);
-    add_smoothness(problem, solution, state);
+    add_limb_costs(problem, first, end);
+    add_smoothness(problem, std::max(0, first - 2), end);
+    for (int f = std::max(0, first - 2); f < first; ++f) {
+      problem.SetParameterBlockConstant(offset_[f].data());
+      for (int s = 0; s < limb_.owned; ++s) problem.SetParameterBlockConstant(slot(f, s).coeffs().data());
+    }
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options_, &problem, &summary);
-    iterations_[window] = static_cast<long>(summary.iterations.size());
+    return static_cast<long>(summary.iterations.size());
   }
 
   // Every frame's limb residuals over its dp and owned slots.
-  void add_limb_costs(ceres::Problem& problem, WindowSolution& solution, State& state) const {
+  void add_limb_costs(ceres::Problem& problem, int first, int end) {
     const int owned = limb_.owned;
     std::vector<double*> blocks;
-    for (int f = solution.first; f < solution.end; ++f) {
-      auto* cost = new ceres::DynamicAutoDiffCostFunction<WindowLimbCost, kWindowStride>(
-          new WindowLimbCost(limb_, options_.weights, state.limb_frames[f - solution.first]));
-      blocks.assign({solution.offset[f - solution.first].data()});
+    for (int f = first; f < end; ++f) {
+      auto* cost = new ceres::DynamicAutoDiffCostFunction<SpanLimbCost, kSpanStride>(
+          new SpanLimbCost(limb_, options_.weights, limb_frames_[f - first]));
+      blocks.assign({offset_[f].data()});
       cost->AddParameterBlock(3);
       for (int s = 0; s < owned; ++s) {
         cost->AddParameterBlock(4);
-        blocks.push_back(solution.slot(f, s, owned).coeffs().data());
+        blocks.push_back(slot(f, s).coeffs().data());
       }
       cost->SetNumResiduals(limb_.residual_count());
       problem.AddResidualBlock(cost, nullptr, blocks);
-      for (int s = 0; s < owned; ++s) problem.SetManifold(solution.slot(f, s, owned).coeffs().data(), &state.manifold);
+      for (int s = 0; s < owned; ++s) problem.SetManifold(slot(f, s).coeffs().data(), &manifold_);
     }
   }
 
-  // The second differences over the window's inner frames (refine.h), through the Cauchy losses.
-  void add_smoothness(ceres::Problem& problem, WindowSolution& solution, State& state) const {
+  // The second differences about the frames (first, end - 1) (refine.h), through Cauchy losses
+  // rho(s) = b^2 log(1 + s / b^2): quadratic below b, where they smooth, and nearly flat far above
+  // it, so a genuine jump (the T-pose reference frame that opens CMU files) is left alone instead
+  // of being smeared over its neighbours. The residuals at the limits: w alpha / 2 (Delta^2 c is
+  // about alpha / 2 / fps^2), and w a for the pelvis (its residuals are in 1.7 m units, as the
+  // limit).
+  void add_smoothness(ceres::Problem& problem, int first, int end) {
     const RefineWeights& weights = options_.weights;
     const Clip& reference = refinement_.reference;
     const double fps_squared = reference.fps * reference.fps;
-    const int owned = limb_.owned;
-    for (int f = solution.first + 1; f + 1 < solution.end; ++f) {
+    for (int f = first + 1; f + 1 < end; ++f) {
       if (weights.smoothness > 0) {
-        for (int s = 0; s < owned; ++s) {
+        for (int s = 0; s < limb_.owned; ++s) {
           const int joint = refinement_.model.unknown_joints[limb_.slots[s]];
           const std::array<Eigen::Quaterniond, 3> around = {reference.rotation(f - 1, joint), reference.rotation(f, joint),
                                                             reference.rotation(f + 1, joint)};
-          problem.AddResidualBlock(CorrectionAcceleration::Create(around, weights.smoothness * fps_squared), &state.rotation_jump,
-                                   solution.slot(f - 1, s, owned).coeffs().data(), solution.slot(f, s, owned).coeffs().data(),
-                                   solution.slot(f + 1, s, owned).coeffs().data());
+          problem.AddResidualBlock(CorrectionAcceleration::Create(around, weights.smoothness * fps_squared), &rotation_jump_,
+                                   slot(f - 1, s).coeffs().data(), slot(f, s).coeffs().data(), slot(f + 1, s).coeffs().data());
         }
       }
       if (weights.pelvis_smoothness > 0) {
         const double weight = refinement_.model.length_scale * weights.pelvis_smoothness * fps_squared;
-        const int i = f - solution.first;
-        problem.AddResidualBlock(PelvisAcceleration::Create(weight), &state.pelvis_jump, solution.offset[i - 1].data(),
-                                 solution.offset[i].data(), solution.offset[i + 1].data());
+        problem.AddResidualBlock(PelvisAcceleration::Create(weight), &pelvis_jump_, offset_[f - 1].data(), offset_[f].data(),
+                                 offset_[f + 1].data());
       }
-    }
-  }
-
-  // The window's kept frames, cross-faded with the neighbouring window within `margin` frames of
-  // a boundary: weight 1 - smoothstep(x) of the previous window, smoothstep(x) of the next, x
-  // running over the 2 margin frames the two share.
-  void write(int window, State& state, Clip& out) const {
-    const auto [kept_first, kept_end] = kept_range(window);
-    const int margin = options_.window_margin;
-    const int owned = limb_.owned;
-    for (int f = kept_first; f < kept_end; ++f) {
-      int other = -1;
-      double weight = 0;  // of the other window
-      if (margin > 0 && f < kept_first + margin && window > 0) {
-        other = window - 1;
-        weight = 1 - smoothstep((f - (kept_first - margin) + 0.5) / (2.0 * margin));
-      } else if (margin > 0 && f >= kept_end - margin && window + 1 < window_count_) {
-        other = window + 1;
-        weight = smoothstep((f - (kept_end - margin) + 0.5) / (2.0 * margin));
-      }
-      const WindowSolution& own = solutions_[window];
-      balanced_pose(f, state.pose);
-      for (int s = 0; s < owned; ++s) {
-        Eigen::Quaterniond q = own.slot(f, s, owned);
-        if (other >= 0) {
-          Eigen::Quaterniond r = solutions_[other].slot(f, s, owned);
-          if (r.dot(q) < 0) r.coeffs() = -r.coeffs();
-          q.coeffs() = (1 - weight) * q.coeffs() + weight * r.coeffs();
-        }
-        state.pose.rotation[limb_.slots[s]] = q.normalized();
-      }
-      state.pose.pelvis_offset = own.offset[f - own.first];
-      if (other >= 0) {
-        const WindowSolution& theirs = solutions_[other];
-        state.pose.pelvis_offset = (1 - weight) * state.pose.pelvis_offset + weight * theirs.offset[f - theirs.first];
-      }
-      state.builder.load(f);
-      state.builder.write(state.pose, refinement_.plan, out);
     }
   }
 
@@ -519,22 +471,25 @@ class AccuratePass {
   const RefineOptions& options_;
   const Limb& limb_;
   const int frames_;
-  const int window_count_;
+  FrameBuilder builder_;
+  ceres::EigenQuaternionManifold manifold_;
+  ceres::CauchyLoss rotation_jump_, pelvis_jump_;
   ceres::Solver::Options solver_options_;
-  std::vector<WindowSolution> solutions_;
-  std::vector<long> iterations_;
+  std::vector<Eigen::Quaterniond> rotation_;  // [frame * owned + slot]: the solution so far
+  std::vector<Eigen::Vector3d> offset_;       // [frame]
+  std::vector<LimbFrame> limb_frames_;        // [frame - first] of the span being solved
+  FramePose pose_;
 };
 
-// The accurate pass over the limb that moves the pelvis (none: nothing to do); sets the window
+// The accurate pass over the limb that moves the pelvis (none: nothing to do); sets the span
 // count and returns the solver iterations.
-long accurate_pass(const Refinement& refinement, Clip& out, int& window_count) {
+long accurate_pass(const Refinement& refinement, Clip& out, int& span_count) {
   const RefineModel& model = refinement.model;
   const auto lower = std::find_if(model.limbs.begin(), model.limbs.end(), [](const Limb& limb) { return limb.moves_pelvis; });
-  const int size = refinement.options.window_frames;
-  window_count = (refinement.frames() + size - 1) / size;
+  span_count = 0;
   if (lower == model.limbs.end()) return 0;
-  AccuratePass pass(refinement, *lower);
-  return pass.run(out);
+  SpaceTimePass pass(refinement, *lower);
+  return pass.run(out, span_count);
 }
 
 // Each joint's quaternion sign made continuous along the clip (the first frame with w >= 0).
@@ -553,13 +508,12 @@ void check_options(const RefineOptions& options) {
   const auto fail = [](const std::string& what) { throw std::invalid_argument("refine options: " + what); };
   if (options.threads < 1) fail("threads must be at least 1, got " + std::to_string(options.threads));
   if (options.window_frames < 1) fail("window_frames must be at least 1, got " + std::to_string(options.window_frames));
-  if (options.window_margin < 0 || 2 * options.window_margin > options.window_frames) {
-    fail("window_margin must be between 0 and half of window_frames, got " + std::to_string(options.window_margin));
-  }
+  if (options.span_frames < 1) fail("span_frames must be at least 1, got " + std::to_string(options.span_frames));
+  if (options.span_lookahead < 0) fail("span_lookahead must not be negative, got " + std::to_string(options.span_lookahead));
   if (!(options.smoothness_limit > 0) || !(options.pelvis_smoothness_limit > 0)) fail("smoothness limits must be positive");
-  if (options.max_iterations < 1 || options.window_iterations < 1) {
+  if (options.max_iterations < 1 || options.span_iterations < 1) {
     fail("iteration limits must be at least 1, got " + std::to_string(options.max_iterations) + " and " +
-         std::to_string(options.window_iterations));
+         std::to_string(options.span_iterations));
   }
   if (!(options.contact_blend_seconds >= 0) || !std::isfinite(options.contact_blend_seconds)) {
     fail("contact_blend_seconds must be a non-negative number, got " + std::to_string(options.contact_blend_seconds));
@@ -602,8 +556,6 @@ RefineOptions default_refine_options(Quality quality) {
     options.weights.foot_contact = 100;
     options.weights.smoothness = 0.0005;
     options.weights.pelvis_smoothness = 0.01;
-    options.window_frames = 32;
-    options.window_margin = 8;
   }
   return options;
 }
@@ -644,7 +596,7 @@ RefineSummary refine(RetargetResult& result, const Clip& source, const RefineOpt
 
   const Clock::time_point solve_start = Clock::now();
   summary.iterations = balanced_pass(refinement, out, summary.windows);
-  if (options.quality == Quality::accurate) summary.iterations += accurate_pass(refinement, out, summary.windows);
+  if (options.quality == Quality::accurate) summary.iterations += accurate_pass(refinement, out, summary.spans);
   summary.solve_seconds = seconds_since(solve_start);
   continuous_signs(out);
 

@@ -1,5 +1,5 @@
 // Refinement of a transferred clip with Ceres: qualities `balanced` (frame by frame) and
-// `accurate` (temporal windows). It starts from a RetargetResult of quality `fast` (retarget.h),
+// `accurate` (space-time). It starts from a RetargetResult of quality `fast` (retarget.h),
 // the reference below, and replaces result.transfer.clip and result.report.result_metrics.
 //
 // Unknowns. Per frame: the local rotation q_j of every target joint that starts a chain bone of
@@ -87,22 +87,23 @@
 //   is solved before the arms without their end-effector terms. Each frame warm-starts from the
 //   previous one (its corrections q_ref^-1 q and dp - dp_plan carried onto this frame); the first
 //   frame of each window of `window_frames` starts from the reference.
-// - accurate: the balanced solution, then the lower body over windows of `window_frames` kept
-//   frames with `window_margin` frames of context on each side: one ceres::Problem per window
-//   over every frame's dp and leg rotations (EigenQuaternionManifold), with the limb residuals
-//   and the smoothness terms, solved with SPARSE_NORMAL_CHOLESKY (the second differences make
-//   the system banded in time; a dense factorisation of a window's ~1,000 unknowns would cost
-//   cubically) for at most `window_iterations` iterations. The upper body keeps its balanced
+// - accurate: the balanced solution, then the lower body as a space-time problem: one
+//   ceres::Problem over every frame's dp and leg rotations (EigenQuaternionManifold) of a span of
+//   up to `span_frames` frames (the whole of most clips), with the limb residuals and the
+//   smoothness terms, solved with SPARSE_NORMAL_CHOLESKY (the second differences make the system
+//   banded in time) for at most `span_iterations` iterations. A longer clip is solved span after
+//   span: each span also solves the `span_lookahead` frames after it, which the next solves again,
+//   and holds the two frames before it at the solution so far, so the accelerations across a cut
+//   are terms of its problem and nothing is cross-faded. The upper body keeps its balanced
 //   solution: its residuals read neither dp nor the legs and its corrections (end effectors
-//   against directions, no contacts) change smoothly; leaving it out makes the windows ~6 times
-//   cheaper. Neighbouring windows overlap by twice the margin around their common boundary and
-//   are cross-faded there (smoothstep), so no seam is left where one window's solution meets the
-//   next's. The smoothness residuals pass through Cauchy losses rho(s) = b^2 log(1 + s / b^2)
+//   against directions, no contacts) change smoothly; leaving it out makes the problem ~6 times
+//   cheaper. The smoothness residuals pass through Cauchy losses rho(s) = b^2 log(1 + s / b^2)
 //   with b at `smoothness_limit` and `pelvis_smoothness_limit`: quadratic for accelerations
 //   below, nearly flat far above, so a genuine jump (the T-pose reference frame that opens CMU
 //   files) is left alone instead of being smeared over its neighbours.
-// Windows are solved in parallel (options.threads), each from data no other window writes, and
-// cut at fixed frames whatever the thread count: threads change the speed, not the result.
+// Balanced windows are solved in parallel (options.threads), each from data no other window
+// writes, and cut at fixed frames whatever the thread count; the spans are solved in turn on one
+// thread: threads change the speed, not the result.
 #pragma once
 
 #include <optional>
@@ -133,22 +134,23 @@ struct RefineOptions {
   Quality quality = Quality::balanced;
   RefineWeights weights;
   double contact_blend_seconds = 0.1;     // fade of a foot correction into and out of a contact
-  int window_frames = 64;                 // frames a window keeps (balanced: one warm-start run)
-  int window_margin = 0;                  // accurate: context frames each side, <= window_frames / 2
+  int window_frames = 64;                 // balanced: frames of one warm-start run
+  int span_frames = 1024;                 // accurate: frames one space-time problem keeps
+  int span_lookahead = 32;                // accurate: frames after a span it solves too
   int max_iterations = 50;                // per limb and frame (most converge in 2 to 4)
-  int window_iterations = 10;             // accurate: per window, from the balanced solution
+  int span_iterations = 10;               // accurate: per span, from the balanced solution
   double smoothness_limit = 300;          // rad/s^2, the Cauchy scale b of the rotation smoothness
   double pelvis_smoothness_limit = 20;    // m/s^2 (1.7 m character), that of the pelvis smoothness
   bool warm_start = true;                 // balanced: start each frame from the previous one
   bool fit_stride = true;                 // fit the stride factor k (above); false: k = 1
-  int threads = 1;                        // independent windows solved in parallel
+  int threads = 1;                        // balanced windows solved in parallel
 };
 
 // Defaults per quality (fast: nothing to refine):
 //   balanced: the weights above, windows of 64 frames;
 //   accurate: foot contact 100 per m (the smoothness would otherwise let planted feet drift by
-//   millimetres), smoothness 0.0005 per rad/s^2 and pelvis smoothness 0.01 per m/s^2, windows of
-//   32 frames with 8 frames of context on each side.
+//   millimetres), smoothness 0.0005 per rad/s^2 and pelvis smoothness 0.01 per m/s^2, spans of
+//   1,024 frames with 32 frames of lookahead.
 RefineOptions default_refine_options(Quality quality);
 
 // The weights by the names that command lines, scene files and reports use ("bone_direction",
@@ -163,9 +165,10 @@ double* refine_weight(RefineWeights& weights, std::string_view name);
 
 struct RefineSummary {
   double seconds = 0;        // wall clock, all of refine() (plan, solvers, metrics)
-  double solve_seconds = 0;  // the solvers alone (balanced pass and accurate windows)
+  double solve_seconds = 0;  // the solvers alone (balanced pass and accurate spans)
   int frames = 0;
-  int windows = 0;           // windows of the last pass (balanced or accurate)
+  int windows = 0;           // balanced windows
+  int spans = 0;             // accurate spans
   long iterations = 0;       // solver iterations, summed over problems
   int unknown_joints = 0;
   double stride = 1;         // the stride factor k
@@ -175,7 +178,7 @@ struct RefineSummary {
 // Refines result.transfer.clip in place and recomputes result.report.result_metrics (and sets
 // report.quality; the CLI times the call). `source` is the clip the result was transferred from.
 // Quality fast leaves the result as it is. Throws std::invalid_argument when the source is not the
-// result's (skeleton, frame count), or an option is out of range (threads, window sizes,
+// result's (skeleton, frame count), or an option is out of range (threads, window and span sizes,
 // iterations, negative or non-finite weights, limits).
 RefineSummary refine(RetargetResult& result, const Clip& source, const RefineOptions& options);
 

@@ -257,9 +257,10 @@ nlohmann::ordered_json actor_report_json(const RetargetedActor& actor) {
     json["settings"]["refine"] = {{"weights", weights},
                                   {"contact_blend_seconds", options.contact_blend_seconds},
                                   {"window_frames", options.window_frames},
-                                  {"window_margin", options.window_margin},
+                                  {"span_frames", options.span_frames},
+                                  {"span_lookahead", options.span_lookahead},
                                   {"max_iterations", options.max_iterations},
-                                  {"window_iterations", options.window_iterations},
+                                  {"span_iterations", options.span_iterations},
                                   {"smoothness_limit", options.smoothness_limit},
                                   {"pelvis_smoothness_limit", options.pelvis_smoothness_limit},
                                   {"warm_start", options.warm_start},
@@ -267,7 +268,7 @@ nlohmann::ordered_json actor_report_json(const RetargetedActor& actor) {
                                   {"threads", options.threads}};
     const retarget::RefineSummary& refined = *actor.refined;
     json["refine"] = {{"seconds", refined.seconds},         {"solve_seconds", refined.solve_seconds},
-                      {"frames", refined.frames},           {"windows", refined.windows},
+                      {"frames", refined.frames},           {"windows", refined.windows}, {"spans", refined.spans},
                       {"iterations", refined.iterations},   {"unknown_joints", refined.unknown_joints},
                       {"stride_factor", refined.stride}};
   }
