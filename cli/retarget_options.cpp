@@ -128,13 +128,13 @@ void add_retarget_options(Args& args) {
 void add_retarget_settings(Args& args) {
   args.option("quality", "Q",
               "fast (rotation transfer, no solver), balanced (Ceres refinement per frame: bone directions, "
-              "end effectors, foot contacts) or accurate (refinement over temporal windows, smoother)",
+              "end effectors, foot contacts) or accurate (then the legs and root of the whole clip as one space-time problem, smoother)",
               "fast")
       .option("parts", "PARTS",
               "what is solved: body (fingers and face keep their rest pose), body+hands, or all (also jaw and "
               "eyes where both maps have them)",
               "body")
-      .option("threads", "N", "threads for the refinement's independent windows (balanced, accurate) and for skinning", "1")
+      .option("threads", "N", "threads for the refinement's frame-by-frame windows (balanced, and accurate's first pass) and for skinning", "1")
       .option("fps", "FPS", "resample the motion to this frame rate before retargeting", "30")
       .option("map", "FILE", "JSON bone map for the character, applied over the preset or detected map (default: none)")
       .option("source-map", "FILE", "JSON bone map for the motion's skeleton, applied likewise (default: none)")
@@ -146,7 +146,7 @@ void add_retarget_settings(Args& args) {
               "rest")
       .option("weights", "LIST",
               "refinement weights over the quality's defaults, NAME=VALUE separated by commas; names: "
-              "bone_direction, end_effector, foot_contact, floor, pose, pelvis, smoothness, pelvis_smoothness "
+              "bone_direction, end_effector, foot_contact, floor, pose, pelvis, pelvis_turn, smoothness, pelvis_smoothness "
               "(defaults and units: README, retargeting conventions)");
   add_bvh_units_option(args);
   add_betas_option(args);

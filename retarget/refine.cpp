@@ -74,8 +74,9 @@ struct LimbWorkPair {
 
 // Balanced: one limb of one frame. Unknowns x: a rotation vector per owned slot, the slot's
 // rotation being q0 q(x_s) with q0 its starting value (a chart of the unit quaternions at q0, as
-// EigenQuaternionManifold's Plus is, turned in the joint's frame rather than its parent's), then
-// dp's change from its starting value when the limb moves the pelvis. Residuals: limb_residuals.
+// EigenQuaternionManifold's Plus is, turned in the joint's frame rather than its parent's), then,
+// when the limb moves the pelvis, dp's change from its starting value and the pelvis's turn as
+// turn0 q(x) likewise. Residuals: limb_residuals.
 class LimbSolver {
  public:
   virtual ~LimbSolver() = default;
@@ -108,7 +109,10 @@ class TinyLimbSolver final : public LimbSolver {
     for (int s = 0; s < limb.owned; ++s) {
       pose.rotation[limb.slots[s]] = (frame.slot_value[s] * rotation_from_vector(x.data() + 3 * s)).normalized();
     }
-    if (limb.moves_pelvis) pose.pelvis_offset = frame.pelvis_offset + x.template tail<3>();
+    if (limb.moves_pelvis) {
+      pose.pelvis_offset = frame.pelvis_offset + x.template segment<3>(3 * limb.owned);
+      pose.pelvis_turn = (frame.pelvis_turn * rotation_from_vector(x.data() + 3 * limb.owned + 3)).normalized();
+    }
     return solver_.summary.iterations;
   }
 
@@ -128,8 +132,12 @@ class TinyLimbSolver final : public LimbSolver {
       LimbWork<T>& w = work.template get<T>();
       for (int s = 0; s < limb.owned; ++s) w.slot(s) = frame->slot_value[s].template cast<T>() * rotation_from_vector(x + 3 * s);
       Vector3<T> offset = frame->pelvis_offset.template cast<T>();
-      if (limb.moves_pelvis) offset += Eigen::Map<const Vector3<T>>(x + 3 * limb.owned);
-      limb_residuals(limb, weights, *frame, offset, w, residual);
+      Eigen::Quaternion<T> turn = frame->pelvis_turn.template cast<T>();
+      if (limb.moves_pelvis) {
+        offset += Eigen::Map<const Vector3<T>>(x + 3 * limb.owned);
+        turn = turn * rotation_from_vector(x + 3 * limb.owned + 3);
+      }
+      limb_residuals(limb, weights, *frame, offset, turn, w, residual);
       return true;
     }
   };
@@ -150,16 +158,17 @@ std::unique_ptr<LimbSolver> make_limb_solver(const Limb& limb, const RefineWeigh
     case 15: return std::make_unique<TinyLimbSolver<15>>(limb, weights, max_iterations);
     case 18: return std::make_unique<TinyLimbSolver<18>>(limb, weights, max_iterations);
     case 21: return std::make_unique<TinyLimbSolver<21>>(limb, weights, max_iterations);
+    case 24: return std::make_unique<TinyLimbSolver<24>>(limb, weights, max_iterations);
     default:
       throw std::invalid_argument("the " + limb.name + " has " + std::to_string(limb.parameter_count()) +
-                                  " unknowns; refinement supports 3 to 21 a limb");
+                                  " unknowns; refinement supports 3 to 24 a limb");
   }
 }
 
-// Accurate: one limb of one frame of a span, over Ceres parameter blocks: dp (3, when the limb
-// moves the pelvis), then one unit quaternion (x, y, z, w) per owned slot (held slots keep the
-// frame's value). Derivatives are taken 16 at a time (the lower body's 3 + 6 x 4 parameters in
-// two passes).
+// Accurate: one limb of one frame of a span, over Ceres parameter blocks: dp (3) and the pelvis's
+// turn (a unit quaternion, x, y, z, w) when the limb moves the pelvis, then one unit quaternion per
+// owned slot (held slots keep the frame's value). Derivatives are taken 16 at a time (the lower
+// body's 3 + 4 + 6 x 4 parameters in two passes).
 constexpr int kSpanStride = 16;
 
 class SpanLimbCost {
@@ -175,9 +184,13 @@ class SpanLimbCost {
     LimbWork<T>& w = work_.template get<T>();
     int block = 0;
     Vector3<T> offset = frame_.pelvis_offset.template cast<T>();
-    if (limb_.moves_pelvis) offset = Eigen::Map<const Vector3<T>>(parameters[block++]);
+    Eigen::Quaternion<T> turn = frame_.pelvis_turn.template cast<T>();
+    if (limb_.moves_pelvis) {
+      offset = Eigen::Map<const Vector3<T>>(parameters[block++]);
+      turn = Eigen::Map<const Eigen::Quaternion<T>>(parameters[block++]);
+    }
     for (int s = 0; s < limb_.owned; ++s) w.slot(s) = Eigen::Map<const Eigen::Quaternion<T>>(parameters[block++]);
-    limb_residuals(limb_, weights_, frame_, offset, w, residual);
+    limb_residuals(limb_, weights_, frame_, offset, turn, w, residual);
     return true;
   }
 
@@ -262,6 +275,7 @@ struct Refinement {
   const RefineOptions& options;
   std::vector<Eigen::Quaterniond> solved_rotation;  // [frame * unknowns + u]
   std::vector<Eigen::Vector3d> solved_offset;       // [frame]
+  std::vector<Eigen::Quaterniond> solved_turn;      // [frame]
 
   int frames() const { return reference.frame_count(); }
   int unknowns() const { return static_cast<int>(model.unknown_joints.size()); }
@@ -316,6 +330,7 @@ long balanced_pass(Refinement& refinement, Clip& out, int& window_count) {
         refinement.solved_rotation[std::size_t(f) * unknowns + u] = state.pose.rotation[u];
       }
       refinement.solved_offset[f] = state.pose.pelvis_offset;
+      refinement.solved_turn[f] = state.pose.pelvis_turn;
     }
     iterations[window] = window_iterations;
   };
@@ -355,12 +370,22 @@ class SpaceTimePass {
     solver_options_.num_threads = 1;
     solver_options_.logging_type = ceres::SILENT;
     const int owned = limb_.owned;
+    // The unknowns the limb does not own that hang from the pelvis through known joints only.
+    const RefineModel& model = refinement.model;
+    for (std::size_t u = 0; u < model.unknown_joints.size(); ++u) {
+      if (std::find(limb.slots.begin(), limb.slots.begin() + owned, int(u)) != limb.slots.begin() + owned) continue;
+      int j = model.kinematics.parents[model.unknown_joints[u]];
+      while (j >= 0 && j != model.pelvis && model.unknown_of[j] < 0) j = model.kinematics.parents[j];
+      if (j == model.pelvis) upper_body_roots_.push_back(int(u));
+    }
     rotation_.resize(std::size_t(frames_) * owned);
     offset_.resize(frames_);
+    turn_.resize(frames_);
     for (int f = 0; f < frames_; ++f) {
       balanced_pose(f, pose_);
       for (int s = 0; s < owned; ++s) slot(f, s) = pose_.rotation[limb_.slots[s]];
       offset_[f] = pose_.pelvis_offset;
+      turn_[f] = pose_.pelvis_turn;
     }
   }
 
@@ -373,11 +398,25 @@ class SpaceTimePass {
       const int first = span * size;
       iterations += solve(first, std::min(frames_, first + size + options_.span_lookahead));
     }
+    const RefineModel& model = refinement_.model;
     for (int f = 0; f < frames_; ++f) {
+      builder_.load(f);
       balanced_pose(f, pose_);
       for (int s = 0; s < limb_.owned; ++s) pose_.rotation[limb_.slots[s]] = slot(f, s).normalized();
       pose_.pelvis_offset = offset_[f];
-      builder_.load(f);
+      // The upper body keeps its world rotations from the balanced pass: with the pelvis's turn
+      // changed from t0 to t1, a joint j hanging from it through known joints (its parent p at
+      // W(p) = R_pelvis t C, C = R_pelvis^-1 W_ref(p)) keeps W(p) L when its local rotation
+      // becomes C^-1 t1^-1 t0 C L. What is solved above it is then as it was, moved only by the
+      // pelvis's offsets turning.
+      const Eigen::Quaterniond before = pose_.pelvis_turn;
+      pose_.pelvis_turn = turn_[f].normalized();
+      const Eigen::Quaterniond change = pose_.pelvis_turn.conjugate() * before;
+      for (int u : upper_body_roots_) {
+        const int parent = model.kinematics.parents[model.unknown_joints[u]];
+        const Eigen::Quaterniond c = builder_.reference_rotation(model.pelvis).conjugate() * builder_.reference_rotation(parent);
+        pose_.rotation[u] = (c.conjugate() * change * c * pose_.rotation[u]).normalized();
+      }
       builder_.write(pose_, refinement_.plan, out);
     }
     return iterations;
@@ -392,6 +431,7 @@ class SpaceTimePass {
     pose.rotation.assign(refinement_.solved_rotation.begin() + std::ptrdiff_t(f) * unknowns,
                          refinement_.solved_rotation.begin() + std::ptrdiff_t(f + 1) * unknowns);
     pose.pelvis_offset = refinement_.solved_offset[f];
+    pose.pelvis_turn = refinement_.solved_turn[f];
   }
 
   // Solves frames [first, end) with the two before `first` held; returns the iterations.
@@ -403,6 +443,7 @@ class SpaceTimePass {
       balanced_pose(f, pose_);
       for (int s = 0; s < limb_.owned; ++s) pose_.rotation[limb_.slots[s]] = slot(f, s);
       pose_.pelvis_offset = offset_[f];
+      pose_.pelvis_turn = turn_[f];
       builder_.fill(limb_, pose_, refinement_.plan, limb_frames_[f - first]);
     }
     ceres::Problem::Options problem_options;
@@ -413,6 +454,7 @@ class SpaceTimePass {
     add_smoothness(problem, std::max(0, first - 2), end);
     for (int f = std::max(0, first - 2); f < first; ++f) {
       problem.SetParameterBlockConstant(offset_[f].data());
+      problem.SetParameterBlockConstant(turn_[f].coeffs().data());
       for (int s = 0; s < limb_.owned; ++s) problem.SetParameterBlockConstant(slot(f, s).coeffs().data());
     }
     ceres::Solver::Summary summary;
@@ -427,14 +469,16 @@ class SpaceTimePass {
     for (int f = first; f < end; ++f) {
       auto* cost = new ceres::DynamicAutoDiffCostFunction<SpanLimbCost, kSpanStride>(
           new SpanLimbCost(limb_, options_.weights, limb_frames_[f - first]));
-      blocks.assign({offset_[f].data()});
+      blocks.assign({offset_[f].data(), turn_[f].coeffs().data()});
       cost->AddParameterBlock(3);
+      cost->AddParameterBlock(4);
       for (int s = 0; s < owned; ++s) {
         cost->AddParameterBlock(4);
         blocks.push_back(slot(f, s).coeffs().data());
       }
       cost->SetNumResiduals(limb_.residual_count());
       problem.AddResidualBlock(cost, nullptr, blocks);
+      problem.SetManifold(turn_[f].coeffs().data(), &manifold_);
       for (int s = 0; s < owned; ++s) problem.SetManifold(slot(f, s).coeffs().data(), &manifold_);
     }
   }
@@ -458,6 +502,10 @@ class SpaceTimePass {
           problem.AddResidualBlock(CorrectionAcceleration::Create(around, weights.smoothness * fps_squared), &rotation_jump_,
                                    slot(f - 1, s).coeffs().data(), slot(f, s).coeffs().data(), slot(f + 1, s).coeffs().data());
         }
+        // The pelvis's turn is a correction already: its reference is the identity.
+        const Eigen::Quaterniond none = Eigen::Quaterniond::Identity();
+        problem.AddResidualBlock(CorrectionAcceleration::Create({none, none, none}, weights.smoothness * fps_squared), &rotation_jump_,
+                                 turn_[f - 1].coeffs().data(), turn_[f].coeffs().data(), turn_[f + 1].coeffs().data());
       }
       if (weights.pelvis_smoothness > 0) {
         const double weight = refinement_.model.length_scale * weights.pelvis_smoothness * fps_squared;
@@ -477,7 +525,9 @@ class SpaceTimePass {
   ceres::Solver::Options solver_options_;
   std::vector<Eigen::Quaterniond> rotation_;  // [frame * owned + slot]: the solution so far
   std::vector<Eigen::Vector3d> offset_;       // [frame]
+  std::vector<Eigen::Quaterniond> turn_;      // [frame]
   std::vector<LimbFrame> limb_frames_;        // [frame - first] of the span being solved
+  std::vector<int> upper_body_roots_;         // unknowns
   FramePose pose_;
 };
 
@@ -522,7 +572,7 @@ void check_options(const RefineOptions& options) {
   const std::pair<const char*, double> weights[] = {
       {"bone_direction", w.bone_direction}, {"end_effector", w.end_effector}, {"foot_contact", w.foot_contact},
       {"floor", w.floor},                   {"pose", w.pose},                 {"pelvis", w.pelvis},
-      {"smoothness", w.smoothness},         {"pelvis_smoothness", w.pelvis_smoothness}};
+      {"pelvis_turn", w.pelvis_turn},       {"smoothness", w.smoothness},     {"pelvis_smoothness", w.pelvis_smoothness}};
   for (const auto& [name, value] : weights) {
     if (!(value >= 0) || !std::isfinite(value)) {
       fail(std::string("weight ") + name + " must be a non-negative number, got " + std::to_string(value));
@@ -592,6 +642,7 @@ RefineSummary refine(RetargetResult& result, const Clip& source, const RefineOpt
   Refinement refinement{model, reference, source, result.source_feet, plan, options, {}, {}};
   refinement.solved_rotation.resize(std::size_t(summary.frames) * model.unknown_joints.size());
   refinement.solved_offset.resize(summary.frames);
+  refinement.solved_turn.resize(summary.frames);
   Clip out = reference;
 
   const Clock::time_point solve_start = Clock::now();
@@ -617,6 +668,7 @@ constexpr RefineWeightName kRefineWeightNames[] = {
     {"floor", &RefineWeights::floor},
     {"pose", &RefineWeights::pose},
     {"pelvis", &RefineWeights::pelvis},
+    {"pelvis_turn", &RefineWeights::pelvis_turn},
     {"smoothness", &RefineWeights::smoothness},
     {"pelvis_smoothness", &RefineWeights::pelvis_smoothness},
 };

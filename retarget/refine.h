@@ -4,9 +4,13 @@
 //
 // Unknowns. Per frame: the local rotation q_j of every target joint that starts a chain bone of
 // the body (rig.h: a non-degenerate segment whose start starts no other; hips, knees, ankles,
-// spine joints, neck, collars, shoulders, elbows, wrists) below the pelvis, and a displacement dp
-// of the pelvis in world (the root's translation moves by dp). Branch joints (the pelvis's
-// rotation, a chest with neck and shoulders) keep the transferred rotation; so do fingers, the
+// spine joints, neck, collars, shoulders, elbows, wrists) below the pelvis, a displacement dp
+// of the pelvis in world (the root's translation moves by dp), and a turn r of the pelvis (its
+// world rotation is the reference's times r). The turn lets the hips roll level when both feet
+// are planted: a rig whose hip width and leg length are not the performer's in one ratio would
+// otherwise bend a near-straight leg to plant its second foot (5-13 degrees on the KayKit
+// mannequin's and RobotExpressive's CMU jump). Other branch joints (a chest with neck and
+// shoulders) keep the transferred rotation; so do fingers, the
 // head's children and every unmapped joint (they ride on their parents). Joints the transfer
 // places rigidly with another (followers, a thumb hung from the forearm: transfer.h) move with it
 // again. IK-style effectors (a detached segment's end outside the pelvis's subtree, as
@@ -29,8 +33,9 @@
 //   floor            w_floor L max(0, g_k - z_T(k)),  every foot joint k, every frame
 //   pose             w_pose 2 vec( q_ref,j^-1 q_j ),  sign taken so the scalar part is >= 0
 //   pelvis           w_pelvis L ( dp - dp_plan(t) )
+//   pelvis turn      w_turn 2 vec( r ),  sign taken so the scalar part is >= 0
 //   (accurate only)  w_smooth fps^2 ( c_j(t+1) - 2 c_j(t) + c_j(t-1) ),  c_j = q_ref,j^-1 q_j,
-//                    the leg joints' corrections (quaternion components), and
+//                    the leg joints' corrections and the turn r (quaternion components), and
 //                    w_pelvis_smooth L fps^2 ( dp(t+1) - 2 dp(t) + dp(t-1) ),
 //                    each through a Cauchy loss (below)
 //
@@ -80,13 +85,14 @@
 // - balanced: frame by frame, one small problem per limb with ceres::TinySolver and automatic
 //   derivatives (ceres::TinySolverAutoDiffFunction, fixed parameter counts, buffers reused: no
 //   allocation per solve); rotations as q = q0 q(x), q(x) the rotation by the vector x, a chart of
-//   the unit quaternions at the starting rotation q0 as EigenQuaternionManifold's Plus is. The lower body (dp and both legs,
-//   up to 21 unknowns) first, then the spine (its chain joints and neck), then each arm with the
-//   solved spine held. The lower body's residuals do not read the upper body's unknowns nor the
-//   upper body's dp (directions and offsets from the pelvis), so that split is exact; the spine
-//   is solved before the arms without their end-effector terms. Each frame warm-starts from the
-//   previous one (its corrections q_ref^-1 q and dp - dp_plan carried onto this frame); the first
-//   frame of each window of `window_frames` starts from the reference.
+//   the unit quaternions at the starting rotation q0 as EigenQuaternionManifold's Plus is. The
+//   lower body (dp, the turn and both legs, up to 24 unknowns) first, then the spine (its chain
+//   joints and neck), then each arm with the solved spine held. The lower body's residuals do not
+//   read the upper body's unknowns (directions and offsets from the pelvis), so that split is
+//   exact; the spine is solved before the arms without their end-effector terms. Each frame
+//   warm-starts from the previous one (its corrections q_ref^-1 q, dp - dp_plan and the turn
+//   carried onto this frame); the first frame of each window of `window_frames` starts from the
+//   reference.
 // - accurate: the balanced solution, then the lower body as a space-time problem: one
 //   ceres::Problem over every frame's dp and leg rotations (EigenQuaternionManifold) of a span of
 //   up to `span_frames` frames (the whole of most clips), with the limb residuals and the
@@ -95,9 +101,10 @@
 //   span: each span also solves the `span_lookahead` frames after it, which the next solves again,
 //   and holds the two frames before it at the solution so far, so the accelerations across a cut
 //   are terms of its problem and nothing is cross-faded. The upper body keeps its balanced
-//   solution: its residuals read neither dp nor the legs and its corrections (end effectors
-//   against directions, no contacts) change smoothly; leaving it out makes the problem ~6 times
-//   cheaper. The smoothness residuals pass through Cauchy losses rho(s) = b^2 log(1 + s / b^2)
+//   solution (its first joints turned against the change of the pelvis's turn, so that their
+//   world rotations stay): its residuals read neither dp nor the legs and its corrections (end
+//   effectors against directions, no contacts) change smoothly; leaving it out makes the problem
+//   ~6 times cheaper. The smoothness residuals pass through Cauchy losses rho(s) = b^2 log(1 + s / b^2)
 //   with b at `smoothness_limit` and `pelvis_smoothness_limit`: quadratic for accelerations
 //   below, nearly flat far above, so a genuine jump (the T-pose reference frame that opens CMU
 //   files) is left alone instead of being smeared over its neighbours.
@@ -126,6 +133,7 @@ struct RefineWeights {
   double floor = 30.0;             // w_floor, per metre below the floor
   double pose = 0.05;              // w_pose, per radian: settles the twist directions leave free
   double pelvis = 1.0;             // w_pelvis, per metre from dp_plan
+  double pelvis_turn = 1.0;        // w_turn, per radian of the pelvis's turn (FramePose)
   double smoothness = 0.0;         // w_smooth, per rad/s^2 (accurate)
   double pelvis_smoothness = 0.0;  // w_pelvis_smooth, per m/s^2 (accurate)
 };

@@ -472,7 +472,7 @@ void fade_around_contacts(const std::vector<std::pair<int, int>>& runs, const st
 }  // namespace
 
 int Limb::residual_count() const {
-  int count = 3 * static_cast<int>(directions.size() + effectors.size()) + 3 * owned + (moves_pelvis ? 3 : 0);
+  int count = 3 * static_cast<int>(directions.size() + effectors.size()) + 3 * owned + (moves_pelvis ? 6 : 0);
   for (const FootTerm& foot : feet) count += 3 + static_cast<int>(foot.nodes.size());
   return count;
 }
@@ -589,6 +589,7 @@ void FrameBuilder::reference_pose(FramePose& pose) const {
   pose.rotation.resize(model_.unknown_joints.size());
   for (std::size_t u = 0; u < model_.unknown_joints.size(); ++u) pose.rotation[u] = reference_local(model_.unknown_joints[u]);
   pose.pelvis_offset.setZero();
+  pose.pelvis_turn.setIdentity();
 }
 
 void FrameBuilder::fill(const Limb& limb, const FramePose& pose, const MotionPlan& plan, LimbFrame& frame) const {
@@ -596,6 +597,7 @@ void FrameBuilder::fill(const Limb& limb, const FramePose& pose, const MotionPla
   frame.pelvis = reference_pose_.world[model_.pelvis];
   frame.pelvis_offset = pose.pelvis_offset;
   frame.pelvis_prior = plan.pelvis_offset[frame_];
+  frame.pelvis_turn = pose.pelvis_turn;
   frame.slot_value.resize(limb.slots.size());
   frame.slot_reference.resize(limb.slots.size());
   for (std::size_t s = 0; s < limb.slots.size(); ++s) {
@@ -603,7 +605,7 @@ void FrameBuilder::fill(const Limb& limb, const FramePose& pose, const MotionPla
     frame.slot_reference[s] = reference_local(model_.unknown_joints[limb.slots[s]]);
   }
   QuaternionKinematicData<double>& limb_pose = frame.pose;
-  limb_pose.base = {frame.pelvis.rotation, frame.pelvis.translation + frame.pelvis_offset};
+  limb_pose.base = {frame.pelvis.rotation * frame.pelvis_turn, frame.pelvis.translation + frame.pelvis_offset};
   limb_pose.local.resize(nodes);
   limb_pose.world.resize(nodes);
   for (std::size_t n = 0; n < nodes; ++n) limb_pose.local[n] = reference_placed_.local[limb.nodes[n].joint];
@@ -641,6 +643,7 @@ void FrameBuilder::place(const FramePose& pose, const MotionPlan* plan) {
     placed_.local[model_.unknown_joints[u]].rotation = pose.rotation[u];
   }
   placed_.local[model_.root].translation += pose.pelvis_offset;
+  placed_.local[model_.pelvis].rotation *= pose.pelvis_turn;
   std::fill(flattened_.begin(), flattened_.end(), 0);
   const std::span<const int> order(model_.kinematics.order);
   std::array<std::pair<std::size_t, double>, 2> flat_feet{};  // position in the order, weight
@@ -676,7 +679,7 @@ void FrameBuilder::write(const FramePose& pose, const MotionPlan& plan, Clip& ou
   Eigen::Quaterniond* rotation = &out.rotations[std::size_t(frame_) * joints];
   for (int j = 0; j < joints; ++j) {
     const int p = skeleton.parent(j);
-    if (model_.placement[j] == Placement::child && model_.unknown_of[j] < 0 && !flattened_[j]) {
+    if (model_.placement[j] == Placement::child && model_.unknown_of[j] < 0 && !flattened_[j] && j != model_.pelvis) {
       rotation[j] = reference_local(j);
     } else {
       rotation[j] = (p < 0 ? world[j].rotation : world[p].rotation.conjugate() * world[j].rotation).normalized();

@@ -91,7 +91,9 @@ struct Limb {
   std::vector<int> moving_nodes, fixed_nodes;
 
   int residual_count() const;
-  int parameter_count() const { return 3 * owned + (moves_pelvis ? 3 : 0); }  // rotation vectors, dp
+  // Rotation vectors of the owned slots, then (when the limb moves the pelvis) dp and the pelvis's
+  // turn.
+  int parameter_count() const { return 3 * owned + (moves_pelvis ? 6 : 0); }
 };
 
 struct RefineModel {
@@ -149,6 +151,9 @@ struct MotionPlan {
 struct FramePose {
   std::vector<Eigen::Quaterniond> rotation;  // per unknown joint, local
   Eigen::Vector3d pelvis_offset = Eigen::Vector3d::Zero();  // dp
+  // The pelvis's turn: its world rotation is the reference's times this (a rotation in its own
+  // frame), so that with both feet planted it can roll the hips level instead of bending a leg.
+  Eigen::Quaterniond pelvis_turn = Eigen::Quaterniond::Identity();
 };
 
 // What a limb's residuals read in one frame.
@@ -156,6 +161,7 @@ struct LimbFrame {
   QuaternionTransform<double> pelvis;  // the reference's pelvis, world (dp not added)
   Eigen::Vector3d pelvis_offset;  // dp's current value
   Eigen::Vector3d pelvis_prior;   // dp_plan(t)
+  Eigen::Quaterniond pelvis_turn; // the turn's current value
   // The limb's nodes at the current values: base the pelvis moved by dp; locals as the placement
   // tree's (a slot's at its current value); world transforms from forward kinematics.
   QuaternionKinematicData<double> pose;
@@ -220,10 +226,11 @@ struct LimbWork {
 
   explicit LimbWork(const Limb& limb) : limb(limb), pose(limb.kinematics) {}
   Eigen::Quaternion<T>& slot(int s) { return pose.local[limb.slot_nodes[s]].rotation; }
-  // What evaluations do not change: the pelvis's rotation, the moving nodes' local transforms (held
-  // slots at their value) and the other nodes' world transforms.
+  // What evaluations do not change: the pelvis's rotation (turned; a limb that moves the pelvis
+  // sets its own), the moving nodes' local transforms (held slots at their value) and the other
+  // nodes' world transforms.
   void load(const LimbFrame& frame) {
-    pose.base.rotation = frame.pelvis.rotation.template cast<T>();
+    pose.base.rotation = (frame.pelvis.rotation * frame.pelvis_turn).template cast<T>();
     for (int n : limb.moving_nodes) pose.local[n] = frame.pose.local[n].template cast<T>();
     for (int n : limb.fixed_nodes) pose.world[n] = frame.pose.world[n].template cast<T>();
   }
@@ -231,14 +238,16 @@ struct LimbWork {
 
 // Residuals of one limb in one frame (refine.h), in the order: directions (3 each), effectors
 // (3 each), feet (contact 3, then floor 1 per joint), pose of the owned slots (3 each), pelvis
-// (3, when the limb moves it); lengths times limb.length_scale. The owned slots' rotations are in
-// work.slot(s), the rest as work.load(frame) left it.
+// and its turn (3 each, when the limb moves it); lengths times limb.length_scale. The owned slots'
+// rotations are in work.slot(s), the rest as work.load(frame) left it; pelvis_turn is read only
+// when the limb moves the pelvis.
 template <class T>
 void limb_residuals(const Limb& limb, const RefineWeights& w, const LimbFrame& frame, const Vector3<T>& pelvis_offset,
-                    LimbWork<T>& work, T* residual) {
+                    const Eigen::Quaternion<T>& pelvis_turn, LimbWork<T>& work, T* residual) {
   using std::sqrt;
   QuaternionKinematicData<T>& pose = work.pose;
   pose.base.translation = frame.pelvis.translation.template cast<T>() + pelvis_offset;
+  if (limb.moves_pelvis) pose.base.rotation = frame.pelvis.rotation.template cast<T>() * pelvis_turn;
   forward_kinematics(limb.kinematics, pose, limb.moving_nodes);
   const auto position = [&pose](int node) -> const Vector3<T>& { return pose.world[node].translation; };
 
@@ -279,7 +288,10 @@ void limb_residuals(const Limb& limb, const RefineWeights& w, const LimbFrame& f
   for (int s = 0; s < limb.owned; ++s) {
     put(rotation_difference(Eigen::Quaternion<T>(frame.slot_reference[s].template cast<T>()), work.slot(s)), w.pose);
   }
-  if (limb.moves_pelvis) put(pelvis_offset - frame.pelvis_prior.template cast<T>(), length * w.pelvis);
+  if (limb.moves_pelvis) {
+    put(pelvis_offset - frame.pelvis_prior.template cast<T>(), length * w.pelvis);
+    put(rotation_difference(Eigen::Quaternion<T>::Identity(), pelvis_turn), w.pelvis_turn);
+  }
 }
 
 }  // namespace odyssey::retarget::refinement

@@ -407,7 +407,7 @@ TEST(RefineModelTest, ReferencePoseAssemblesTheTransferredClip) {
 // solves, against central finite differences of the whole limb placed again from the perturbed
 // pose (FrameBuilder::fill): the derivatives, and the split into moving and fixed nodes, agree.
 TEST(RefineModelTest, LimbJacobiansMatchFiniteDifferencesOfTheWholePose) {
-  constexpr int kMaxParameters = 32;  // 4 per owned slot (quaternion coefficients) and dp's 3
+  constexpr int kMaxParameters = 32;  // 4 per owned slot (quaternion coefficients), dp's 3, the turn's 4
   using Jet = ceres::Jet<double, kMaxParameters>;
   const RefineWeights weights = default_refine_options(Quality::accurate).weights;
   for (const std::string& character : kCharacters) {
@@ -419,21 +419,26 @@ TEST(RefineModelTest, LimbJacobiansMatchFiniteDifferencesOfTheWholePose) {
     refinement::FramePose pose;
     builder.reference_pose(pose);
     pose.pelvis_offset = plan.pelvis_offset[150] + Vector3d(0.01, -0.02, 0.005);
+    pose.pelvis_turn = Eigen::AngleAxisd(0.05, Vector3d(1, 2, 3).normalized());
     for (const refinement::Limb& limb : model.limbs) {
-      const int owned = limb.owned, parameters = 4 * owned + (limb.moves_pelvis ? 3 : 0);
+      const int owned = limb.owned, parameters = 4 * owned + (limb.moves_pelvis ? 7 : 0);
       ASSERT_LE(parameters, kMaxParameters);
       const int residuals = limb.residual_count();
-      // Residuals with the owned slots' quaternions and dp moved by `step`, the whole limb placed again.
+      // Residuals with the owned slots' quaternions, dp and the turn moved by `step`, the whole limb
+      // placed again.
       const auto placed_again = [&](const std::vector<double>& step) {
         refinement::FramePose moved = pose;
         for (int s = 0; s < owned; ++s) moved.rotation[limb.slots[s]].coeffs() += Eigen::Map<const Eigen::Vector4d>(&step[4 * s]);
-        if (limb.moves_pelvis) moved.pelvis_offset += Eigen::Map<const Vector3d>(&step[4 * owned]);
+        if (limb.moves_pelvis) {
+          moved.pelvis_offset += Eigen::Map<const Vector3d>(&step[4 * owned]);
+          moved.pelvis_turn.coeffs() += Eigen::Map<const Eigen::Vector4d>(&step[4 * owned + 3]);
+        }
         refinement::LimbFrame frame;
         builder.fill(limb, moved, plan, frame);
         refinement::LimbWork<double> work(limb);
         work.load(frame);
         std::vector<double> out(residuals);
-        refinement::limb_residuals<double>(limb, weights, frame, moved.pelvis_offset, work, out.data());
+        refinement::limb_residuals<double>(limb, weights, frame, moved.pelvis_offset, moved.pelvis_turn, work, out.data());
         return out;
       };
       refinement::LimbFrame frame;
@@ -446,8 +451,12 @@ TEST(RefineModelTest, LimbJacobiansMatchFiniteDifferencesOfTheWholePose) {
       }
       Eigen::Matrix<Jet, 3, 1> offset = pose.pelvis_offset.cast<Jet>();
       for (int i = 0; limb.moves_pelvis && i < 3; ++i) offset[i].v[4 * owned + i] = 1;
+      const Quaterniond& t = pose.pelvis_turn;
+      const int turn = 4 * owned + 3;
+      Eigen::Quaternion<Jet> turned = t.cast<Jet>();
+      if (limb.moves_pelvis) turned = Eigen::Quaternion<Jet>(Jet(t.w(), turn + 3), Jet(t.x(), turn), Jet(t.y(), turn + 1), Jet(t.z(), turn + 2));
       std::vector<Jet> jets(residuals);
-      refinement::limb_residuals<Jet>(limb, weights, frame, offset, work, jets.data());
+      refinement::limb_residuals<Jet>(limb, weights, frame, offset, turned, work, jets.data());
       constexpr double h = 1e-6;
       double worst = 0;
       for (int k = 0; k < parameters; ++k) {

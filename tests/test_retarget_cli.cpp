@@ -249,7 +249,8 @@ TEST(RetargetCliTest, BalancedQualityRefines) {
   // Every refinement weight is in the report, at the documented defaults.
   EXPECT_EQ(report["settings"]["refine"]["weights"]["foot_contact"], 30.0);
   EXPECT_EQ(report["settings"]["refine"]["weights"]["pose"], 0.05);
-  EXPECT_EQ(report["settings"]["refine"]["weights"].size(), 8u);
+  EXPECT_EQ(report["settings"]["refine"]["weights"]["pelvis_turn"], 1.0);
+  EXPECT_EQ(report["settings"]["refine"]["weights"].size(), 9u);
   EXPECT_GT(report["refine"]["frames"].get<int>(), 0);
   EXPECT_LT(report["metrics"]["result"]["bone_direction_deg"]["mean"].get<double>(), 2.0);
   if (const std::string missing = validator_missing(); !missing.empty()) GTEST_SKIP() << missing;
