@@ -457,8 +457,19 @@ class SpaceTimePass {
       problem.SetParameterBlockConstant(turn_[f].coeffs().data());
       for (int s = 0; s < limb_.owned; ++s) problem.SetParameterBlockConstant(slot(f, s).coeffs().data());
     }
+    // Eliminated frame by frame, in time order: the normal equations are banded in time (the
+    // second differences reach two frames), so this ordering fills nothing outside the band.
+    // Left to choose (AMD), SuiteSparse took 2.5-3 times as long per factorisation on the CMU jump.
+    ceres::Solver::Options options = solver_options_;
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (int f = std::max(0, first - 2); f < end; ++f) {
+      ordering->AddElementToGroup(offset_[f].data(), f);
+      ordering->AddElementToGroup(turn_[f].coeffs().data(), f);
+      for (int s = 0; s < limb_.owned; ++s) ordering->AddElementToGroup(slot(f, s).coeffs().data(), f);
+    }
+    options.linear_solver_ordering = ordering;
     ceres::Solver::Summary summary;
-    ceres::Solve(solver_options_, &problem, &summary);
+    ceres::Solve(options, &problem, &summary);
     return static_cast<long>(summary.iterations.size());
   }
 
