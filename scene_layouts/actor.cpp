@@ -294,10 +294,10 @@ std::string actor_timings(const RetargetedActor& actor) {
                            timings.metrics);
   if (actor.refined && used > 0 && used < static_cast<int>(sizeof text)) {
     std::snprintf(text + used, sizeof text - used,
-                  ", refine %.3f s (solvers %.3f s, %.0f frames/s, %d windows, %ld iterations, threads: %d)",
+                  ", refine %.3f s (solvers %.3f s, %.0f frames/s, %d windows, %d spans, %ld iterations, threads: %d)",
                   actor.refined->seconds, actor.refined->solve_seconds,
                   actor.refined->seconds > 0 ? frames / actor.refined->seconds : 0.0, actor.refined->windows,
-                  actor.refined->iterations, actor.request.refine_options.threads);
+                  actor.refined->spans, actor.refined->iterations, actor.request.refine_options.threads);
   }
   return text;
 }
