@@ -17,6 +17,8 @@ namespace {
 constexpr double kBranchTwistWeight = 0.1;  // eps in transfer.h
 constexpr double kFloorSmoothingSeconds = 0.1;  // sigma of dz(t) in transfer.h
 constexpr double kSlideSmoothingSeconds = 0.05;  // sigma of c(t)'s steps in transfer.h
+constexpr double kRollSmoothingSeconds = 0.1;  // sigma of r(t) in transfer.h
+constexpr double kLargestRoll = 0.26;          // rad (15 degrees)
 
 // `values` convolved with a Gaussian of `sigma` samples, cut at 3 sigma and normalised where it
 // runs past either end.
@@ -35,6 +37,18 @@ std::vector<double> gaussian_smoothed(const std::vector<double>& values, double 
     smoothed[f] = sum / weight;
   }
   return smoothed;
+}
+
+// `values` set only at the ascending frames `known` (not empty) filled in between: linear between
+// two known frames, held before the first and after the last.
+void fill_between(const std::vector<int>& known, std::vector<double>& values) {
+  const int frames = static_cast<int>(values.size());
+  for (int f = 0; f < known.front(); ++f) values[f] = values[known.front()];
+  for (int f = known.back() + 1; f < frames; ++f) values[f] = values[known.back()];
+  for (std::size_t k = 0; k + 1 < known.size(); ++k) {
+    const int a = known[k], b = known[k + 1];
+    for (int f = a + 1; f < b; ++f) values[f] = values[a] + (values[b] - values[a]) * (f - a) / (b - a);
+  }
 }
 
 // dz(t) of transfer.h from the per-frame gaps: `gaps[2 f + side]`, `planted[side][f]`.
@@ -59,12 +73,7 @@ std::vector<double> floor_offsets(const std::vector<double>& gaps, const FootCon
     for (double gap : gaps) sum += gap;
     return std::vector<double>(frames, gaps.empty() ? 0.0 : sum / static_cast<double>(gaps.size()));
   }
-  for (int f = 0; f < known.front(); ++f) wanted[f] = wanted[known.front()];
-  for (int f = known.back() + 1; f < frames; ++f) wanted[f] = wanted[known.back()];
-  for (std::size_t k = 0; k + 1 < known.size(); ++k) {
-    const int a = known[k], b = known[k + 1];
-    for (int f = a + 1; f < b; ++f) wanted[f] = wanted[a] + (wanted[b] - wanted[a]) * (f - a) / (b - a);
-  }
+  fill_between(known, wanted);
   return gaussian_smoothed(wanted, kFloorSmoothingSeconds * fps);
 }
 
@@ -142,6 +151,9 @@ FastTransfer::FastTransfer(const RetargetRig& rig, const Feet& target_feet) : ri
   for (const RigidTransform<double>& joint : rest) rest_rotation_.push_back(Eigen::Quaterniond(joint.rotation).normalized());
   const int target_pelvis = rig.target_joint(canonical::pelvis);
   target_rest_pelvis_ = rest[target_pelvis].translation;
+  pelvis_ = target_pelvis;
+  left_hip_ = rig.target_joint(canonical::left_hip);
+  right_hip_ = rig.target_joint(canonical::right_hip);
   root_ = target_pelvis;
   while (target.parent(root_) >= 0) root_ = target.parent(root_);
   root_to_pelvis_ = rest_rotation_[root_].conjugate() * (rest[target_pelvis].translation - rest[root_].translation);
@@ -319,9 +331,23 @@ TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, co
   check_source(source, contacts);
   TransferResult result{empty_output(source)};
   Workspace work(*this, source, source_feet.levelling);
-  for (int f = 0; f < source.frame_count(); ++f) {
+  const int frames = source.frame_count();
+  // First where the feet stand with the pelvis as driven, for the roll that levels them; then the
+  // clip with that roll.
+  std::vector<Eigen::Quaterniond> rolls(frames, Eigen::Quaterniond::Identity());
+  if (left_hip_ >= 0 && right_hip_ >= 0) {
+    std::vector<Eigen::Vector3d> hip_chords(frames);
+    for (int f = 0; f < frames; ++f) {
+      pose_source(source, f, work);
+      place_target(source_feet, rolls[f], work);
+      measure_feet(f, source_feet, work);
+      hip_chords[f] = work.target_position[left_hip_] - work.target_position[right_hip_];
+    }
+    rolls = pelvis_rolls(work, hip_chords, contacts, source.fps);
+  }
+  for (int f = 0; f < frames; ++f) {
     pose_source(source, f, work);
-    place_target(source_feet, work);
+    place_target(source_feet, rolls[f], work);
     write_frame(f, work, result.clip);
     measure_feet(f, source_feet, work);
   }
@@ -369,7 +395,7 @@ void FastTransfer::pose_source(const Clip& source, int frame, Workspace& work) c
 //   P(root) = P*(t) - W(root) W^rest(root)^-1 (P^rest(pelvis) - P^rest(root)),
 //   P*(t)   = P_T^rest(pelvis) + s (p_S(pelvis, t) - p_S^rest(pelvis)),
 // then forward kinematics places the joint (and composes a rest rotation with its parent's).
-void FastTransfer::place_target(const Feet& source_feet, Workspace& work) const {
+void FastTransfer::place_target(const Feet& source_feet, const Eigen::Quaterniond& pelvis_roll, Workspace& work) const {
   const double s = rig_.scale;
   const Eigen::Vector3d& pelvis_source = work.source_position[rig_.source_joint(canonical::pelvis)];
   const Eigen::Vector3d pelvis_target = target_rest_pelvis_ + s * (pelvis_source - work.source_rest_pelvis);
@@ -380,6 +406,7 @@ void FastTransfer::place_target(const Feet& source_feet, Workspace& work) const 
     const JointRule& rule = rules_[j];
     if (rule.rotation == JointRule::Rotation::driven) {
       local[j].rotation = driven_rotation(j, work);
+      if (j == pelvis_) local[j].rotation = pelvis_roll * local[j].rotation;
       if (rule.toe_side >= 0 && source_feet[rule.toe_side].joints.size() == 2) {
         const Foot& foot = target_feet_[rule.toe_side];
         const double rise = toe_rise(foot, source_feet[rule.toe_side], work.source_position, s);
@@ -469,6 +496,31 @@ void FastTransfer::measure_feet(int frame, const Feet& source_feet, Workspace& w
     work.last_target_support[side] = target_foot.point(work.last_target_point[side], position, first_rotation);
     work.last_source_support[side] = source_position[source_foot.joints[work.last_source_joint[side]]];
   }
+}
+
+// r(t) of transfer.h from the first pass's gaps and hip chords (left minus right).
+std::vector<Eigen::Quaterniond> FastTransfer::pelvis_rolls(const Workspace& work, const std::vector<Eigen::Vector3d>& hip_chords,
+                                                           const FootContacts& contacts, double fps) const {
+  const int frames = contacts.frame_count();
+  std::vector<double> wanted(frames, 0.0);
+  std::vector<int> known;  // frames with both feet planted
+  for (int f = 0; f < frames; ++f) {
+    const double width = hip_chords[f].head<2>().norm();
+    if (!contacts.planted[0][f] || !contacts.planted[1][f] || width <= 0) continue;
+    wanted[f] = std::clamp(-(work.gaps[2 * std::size_t(f)] - work.gaps[2 * std::size_t(f) + 1]) / width, -kLargestRoll, kLargestRoll);
+    known.push_back(f);
+  }
+  std::vector<Eigen::Quaterniond> rolls(frames, Eigen::Quaterniond::Identity());
+  if (known.empty()) return rolls;
+  fill_between(known, wanted);
+  wanted = gaussian_smoothed(wanted, kRollSmoothingSeconds * fps);
+  for (int f = 0; f < frames; ++f) {
+    const Eigen::Vector3d lateral(hip_chords[f].x(), hip_chords[f].y(), 0);
+    if (lateral.norm() <= 0) continue;
+    const Eigen::Vector3d axis = Eigen::Vector3d::UnitZ().cross(lateral.normalized());
+    rolls[f] = Eigen::Quaterniond(Eigen::AngleAxisd(wanted[f], axis));
+  }
+  return rolls;
 }
 
 // The root moved by c(t) horizontally and dz(t) vertically (transfer.h); floor_offset is dz's mean.
