@@ -201,8 +201,6 @@ struct SharedCase {
   std::string clip;
   std::string character;  // a file in shared/assets/characters, or "mixamo" for the test rig
   SourceRest rest;
-  // Fast's bound on penetration plus floating at the performer's size, cm (below).
-  double floor_cm = 1.5;
 };
 
 class SharedAssetsTest : public testing::TestWithParam<SharedCase> {};
@@ -219,14 +217,14 @@ TEST_P(SharedAssetsTest, LimbsFollowTheSourceAndFeetKeepTheFloor) {
   EXPECT_LT(result.rig.alignment.max_residual_deg, 0.05) << label;
   expect_limbs_under(result.report.result_metrics, 2.0, label);
   // During the source's contacts the feet stay on the floor: mean depth plus mean height under
-  // 1.5 cm at the performer's size (the metrics are in the target's size, s times larger).
-  // RobotExpressive's thighs are two thirds of the scaled performer's and its shins as long, so
-  // with every leg bone along the source's, its two planted feet stand up to 10 cm apart in height
-  // in the jump's asymmetric crouch (4.3 cm at the performer's size): no height of the body puts
-  // both on the floor, fast reads 2.1 cm, and bending the legs to plant them is balanced's job
-  // (RobotExpressiveShinsFollowTheSourceAndBalancedPlantsTheFeet).
+  // 1 cm at the performer's size (the metrics are in the target's size, s times larger; measured
+  // 0.37-0.62). RobotExpressive's thighs are two thirds of the scaled performer's and its shins
+  // as long, so with every leg bone along the source's, its two planted feet stand up to 10 cm
+  // apart in height in the jump's asymmetric crouch (4.3 cm at the performer's size): no height
+  // of the body puts both on the floor, and it read 2.1 cm until the pelvis rolled to level them
+  // (transfer.h); now 0.62.
   const RetargetMetrics& metrics = result.report.result_metrics;
-  EXPECT_LT((metrics.penetration_cm + metrics.floating_cm) / result.rig.scale, c.floor_cm) << label;
+  EXPECT_LT((metrics.penetration_cm + metrics.floating_cm) / result.rig.scale, 1.0) << label;
   EXPECT_GT(result.contacts.planted_count(), source.frame_count() / 2) << label;
 }
 
@@ -234,8 +232,7 @@ std::vector<SharedCase> shared_cases() {
   std::vector<SharedCase> cases;
   for (const char* clip : {"cmu_walk_cgspeed.bvh", "cmu_jump_cgspeed.bvh"}) {
     for (const char* character : {"RiggedFigure.glb", "CesiumMan.glb", "RobotExpressive.glb", "mixamo"}) {
-      const bool robot_jump = std::string(character) == "RobotExpressive.glb" && std::string(clip) == "cmu_jump_cgspeed.bvh";
-      for (SourceRest rest : {SourceRest::rest, SourceRest::first_frame}) cases.push_back({clip, character, rest, robot_jump ? 2.5 : 1.5});
+      for (SourceRest rest : {SourceRest::rest, SourceRest::first_frame}) cases.push_back({clip, character, rest});
     }
   }
   return cases;
