@@ -17,7 +17,7 @@ namespace {
 constexpr double kBranchTwistWeight = 0.1;  // eps in transfer.h
 constexpr double kFloorSmoothingSeconds = 0.1;  // sigma of dz(t) in transfer.h
 constexpr double kSlideSmoothingSeconds = 0.05;  // sigma of c(t)'s steps in transfer.h
-constexpr double kRollSmoothingSeconds = 0.1;  // sigma of r(t) in transfer.h
+constexpr double kRollSmoothingSeconds = 0.05;  // sigma of r(t) in transfer.h
 constexpr double kLargestRoll = 0.26;          // rad (15 degrees)
 
 // `values` convolved with a Gaussian of `sigma` samples, cut at 3 sigma and normalised where it
@@ -512,7 +512,6 @@ std::vector<Eigen::Quaterniond> FastTransfer::pelvis_rolls(const Workspace& work
   }
   std::vector<Eigen::Quaterniond> rolls(frames, Eigen::Quaterniond::Identity());
   if (known.empty()) return rolls;
-  fill_between(known, wanted);
   wanted = gaussian_smoothed(wanted, kRollSmoothingSeconds * fps);
   for (int f = 0; f < frames; ++f) {
     const Eigen::Vector3d lateral(hip_chords[f].x(), hip_chords[f].y(), 0);

@@ -218,11 +218,11 @@ TEST_P(SharedAssetsTest, LimbsFollowTheSourceAndFeetKeepTheFloor) {
   expect_limbs_under(result.report.result_metrics, 2.0, label);
   // During the source's contacts the feet stay on the floor: mean depth plus mean height under
   // 1 cm at the performer's size (the metrics are in the target's size, s times larger; measured
-  // 0.37-0.62). RobotExpressive's thighs are two thirds of the scaled performer's and its shins
+  // 0.41-0.64). RobotExpressive's thighs are two thirds of the scaled performer's and its shins
   // as long, so with every leg bone along the source's, its two planted feet stand up to 10 cm
   // apart in height in the jump's asymmetric crouch (4.3 cm at the performer's size): no height
   // of the body puts both on the floor, and it read 2.1 cm until the pelvis rolled to level them
-  // (transfer.h); now 0.62.
+  // (transfer.h); now 0.64.
   const RetargetMetrics& metrics = result.report.result_metrics;
   EXPECT_LT((metrics.penetration_cm + metrics.floating_cm) / result.rig.scale, 1.0) << label;
   EXPECT_GT(result.contacts.planted_count(), source.frame_count() / 2) << label;
