@@ -80,8 +80,8 @@
 // with hip width and leg length not the performer's in one ratio, a leg along the performer's
 // ends too high or too low (RobotExpressive's two feet, up to 10 cm apart in the CMU jump's
 // crouch). The pelvis rolls instead: turned by r about the horizontal axis z x h (h the hip chord
-// left minus right, horizontal part, unit), the left hip rises by r |h| relative to the right,
-// and the legs, whose directions are held in world, carry the feet with them. So, in a first
+// left minus right, horizontal part, unit), the left hip falls by r |h| relative to the right
+// (to first order), and the legs, whose directions are held in world, carry the feet with them. So, in a first
 // pass over the clip with the pelvis as driven,
 //   r(t) = -(g(left, t) - g(right, t)) / |h(t)|   where the source plants both feet (within 15
 //          degrees), 0 elsewhere, smoothed by a Gaussian of sigma = 0.05 s,
