@@ -651,10 +651,16 @@ RefineSummary refine(RetargetResult& result, const Clip& source, const RefineOpt
   const MotionPlan plan = plan_motion(model, planner, result.contacts, blend_frames, options.fit_stride);
   summary.stride = plan.stride;
   summary.height = plan.height;
-  Refinement refinement{model, reference, source, result.source_feet, plan, options, {}, {}};
-  refinement.solved_rotation.resize(std::size_t(summary.frames) * model.unknown_joints.size());
-  refinement.solved_offset.resize(summary.frames);
-  refinement.solved_turn.resize(summary.frames);
+  const std::size_t frames = summary.frames;
+  Refinement refinement{model,
+                        reference,
+                        source,
+                        result.source_feet,
+                        plan,
+                        options,
+                        std::vector<Eigen::Quaterniond>(frames * model.unknown_joints.size()),
+                        std::vector<Eigen::Vector3d>(frames),
+                        std::vector<Eigen::Quaterniond>(frames)};
   Clip out = reference;
 
   const Clock::time_point solve_start = Clock::now();

@@ -343,7 +343,7 @@ TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, co
       measure_feet(f, source_feet, work);
       hip_chords[f] = work.target_position[left_hip_] - work.target_position[right_hip_];
     }
-    rolls = pelvis_rolls(work, hip_chords, contacts, source.fps);
+    rolls = pelvis_rolls(work.gaps, hip_chords, contacts, source.fps);
   }
   for (int f = 0; f < frames; ++f) {
     pose_source(source, f, work);
@@ -499,20 +499,17 @@ void FastTransfer::measure_feet(int frame, const Feet& source_feet, Workspace& w
 }
 
 // r(t) of transfer.h from the first pass's gaps and hip chords (left minus right).
-std::vector<Eigen::Quaterniond> FastTransfer::pelvis_rolls(const Workspace& work, const std::vector<Eigen::Vector3d>& hip_chords,
-                                                           const FootContacts& contacts, double fps) const {
+std::vector<Eigen::Quaterniond> FastTransfer::pelvis_rolls(const std::vector<double>& gaps, const std::vector<Eigen::Vector3d>& hip_chords,
+                                                           const FootContacts& contacts, double fps) {
   const int frames = contacts.frame_count();
-  std::vector<double> wanted(frames, 0.0);
-  std::vector<int> known;  // frames with both feet planted
+  std::vector<double> wanted(frames, 0.0);  // 0 but where both feet are planted
   for (int f = 0; f < frames; ++f) {
     const double width = hip_chords[f].head<2>().norm();
     if (!contacts.planted[0][f] || !contacts.planted[1][f] || width <= 0) continue;
-    wanted[f] = std::clamp(-(work.gaps[2 * std::size_t(f)] - work.gaps[2 * std::size_t(f) + 1]) / width, -kLargestRoll, kLargestRoll);
-    known.push_back(f);
+    wanted[f] = std::clamp(-(gaps[2 * std::size_t(f)] - gaps[2 * std::size_t(f) + 1]) / width, -kLargestRoll, kLargestRoll);
   }
-  std::vector<Eigen::Quaterniond> rolls(frames, Eigen::Quaterniond::Identity());
-  if (known.empty()) return rolls;
   wanted = gaussian_smoothed(wanted, kRollSmoothingSeconds * fps);
+  std::vector<Eigen::Quaterniond> rolls(frames, Eigen::Quaterniond::Identity());
   for (int f = 0; f < frames; ++f) {
     const Eigen::Vector3d lateral(hip_chords[f].x(), hip_chords[f].y(), 0);
     if (lateral.norm() <= 0) continue;

@@ -81,8 +81,8 @@
 // ends too high or too low (RobotExpressive's two feet, up to 10 cm apart in the CMU jump's
 // crouch). The pelvis rolls instead: turned by r about the horizontal axis z x h (h the hip chord
 // left minus right, horizontal part, unit), the left hip falls by r |h| relative to the right
-// (to first order), and the legs, whose directions are held in world, carry the feet with them. So, in a first
-// pass over the clip with the pelvis as driven,
+// (to first order), and the legs, whose directions are held in world, carry the feet with them.
+// So, in a first pass over the clip with the pelvis as driven,
 //   r(t) = -(g(left, t) - g(right, t)) / |h(t)|   where the source plants both feet (within 15
 //          degrees), 0 elsewhere, smoothed by a Gaussian of sigma = 0.05 s,
 // and the clip is placed again with the pelvis's world rotation turned by r(t) before dz and c
@@ -181,8 +181,8 @@ class FastTransfer {
   Clip empty_output(const Clip& source) const;
   void pose_source(const Clip& source, int frame, Workspace& work) const;
   void place_target(const Feet& source_feet, const Eigen::Quaterniond& pelvis_roll, Workspace& work) const;
-  std::vector<Eigen::Quaterniond> pelvis_rolls(const Workspace& work, const std::vector<Eigen::Vector3d>& hip_chords,
-                                               const FootContacts& contacts, double fps) const;
+  static std::vector<Eigen::Quaterniond> pelvis_rolls(const std::vector<double>& gaps, const std::vector<Eigen::Vector3d>& hip_chords,
+                                                      const FootContacts& contacts, double fps);
   Eigen::Quaterniond driven_rotation(int joint, const Workspace& work) const;
   void write_frame(int frame, const Workspace& work, Clip& out) const;
   void measure_feet(int frame, const Feet& source_feet, Workspace& work) const;
