@@ -615,7 +615,7 @@ RefineOptions default_refine_options(Quality quality) {
   RefineOptions options;
   options.quality = quality;
   if (quality == Quality::accurate) {
-    options.weights.foot_contact = 100;
+    options.weights.foot_contact = 12;
     options.weights.smoothness = 0.0005;
     options.weights.pelvis_smoothness = 0.01;
   }

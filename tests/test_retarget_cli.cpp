@@ -247,7 +247,7 @@ TEST(RetargetCliTest, BalancedQualityRefines) {
   EXPECT_EQ(report["quality"], "balanced");
   EXPECT_EQ(report["settings"]["refine"]["threads"], 2);
   // Every refinement weight is in the report, at the documented defaults.
-  EXPECT_EQ(report["settings"]["refine"]["weights"]["foot_contact"], 30.0);
+  EXPECT_EQ(report["settings"]["refine"]["weights"]["foot_contact"], 6.0);
   EXPECT_EQ(report["settings"]["refine"]["weights"]["pose"], 0.05);
   EXPECT_EQ(report["settings"]["refine"]["weights"]["pelvis_turn"], 1.0);
   EXPECT_EQ(report["settings"]["refine"]["weights"].size(), 9u);
