@@ -49,14 +49,16 @@
 // term a tie-breaker. The contact weight trades the legs against the floor where the rig's foot
 // cannot follow both: with its foot bone along the performer's, a Mixamo-style foot stands on
 // its heel with the ball 3.5-4.5 cm up, so at toe-off, as the performer's heel rises, holding the
-// target's heel down bends both legs. At w_foot 30 (and 100 at accurate) the legs' mean error
-// over the CMU clips rose 0.5-1.1 degrees above the transfer's for contacts within 1 mm; at 6
-// (12) it rises 0.4-0.7 and the lowest point of a planted foot stays within 8 mm of the floor
-// (0.1 cm on average); at 2 the legs are within 0.3 degrees but planted feet lift 1.5-4 cm in the
-// last frames of a contact. Smoothing the corrections rather than the rotations themselves leaves the
-// performer's motion (and its capture noise) as it was: smoothing local rotations fights the
-// capture, whose root noise the legs compensate, and makes the pelvis shake to keep the feet
-// planted; what the refinement adds (contacts switching, per-frame solves) is what is smoothed.
+// target's heel down bends both legs. On the CMU clips, the legs' mean error above the
+// transfer's, at balanced (accurate), with the planted feet's mean distance from the floor:
+// at w_foot 30 (100 at accurate) 0.4-0.75 (0.5-1.1) degrees, 0.01 cm; at 6 (12), the defaults,
+// 0.35-0.6 (0.45-0.75), 0.01-0.07 cm, every planted frame of the walk tests within 8 mm; at 2
+// (3) 0.2-0.35 (0.25-0.5), but planted feet lift 1.5-4 cm in the last frames of a contact.
+// RobotExpressive's jump, 0.7-1.0 at any of these, is the exception.
+// Smoothing the corrections rather than the rotations themselves leaves the performer's motion
+// (and its capture noise) as it was: smoothing local rotations fights the capture, whose root
+// noise the legs compensate, and makes the pelvis shake to keep the feet planted; what the
+// refinement adds (contacts switching, per-frame solves) is what is smoothed.
 //
 // The plan, fixed before solving (refine_model.h: plan_motion):
 // - Stride and height. The height ratio s scales the root's travel, but the target's legs need
