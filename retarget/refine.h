@@ -53,7 +53,7 @@
 // transfer's, at balanced (accurate), with the planted feet's mean distance from the floor:
 // at w_foot 30 (100 at accurate) 0.4-0.75 (0.5-1.1) degrees, 0.01 cm; at 6 (12), the defaults,
 // 0.35-0.6 (0.45-0.75), 0.01-0.07 cm, every planted frame of the walk tests within 8 mm; at 2
-// (3) 0.2-0.35 (0.25-0.5), but planted feet lift 1.5-4 cm in the last frames of a contact.
+// (3) 0.2-0.35 (0.25-0.5), but planted feet lift 1.5-3 cm in the last frames of a contact.
 // RobotExpressive's jump, 0.7-1.0 at any of these, is the exception.
 // Smoothing the corrections rather than the rotations themselves leaves the performer's motion
 // (and its capture noise) as it was: smoothing local rotations fights the capture, whose root
