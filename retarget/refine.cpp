@@ -341,16 +341,16 @@ long balanced_pass(Refinement& refinement, Clip& out, int& window_count) {
 }
 
 // Accurate: the lower body (the limb that moves the pelvis) as a space-time problem, started from
-// the balanced solution: every frame's dp, pelvis turn and leg rotations of a span of
-// `span_frames` frames in one Ceres problem, with the limb residuals and the smoothness terms. A clip of up to
+// the balanced solution: every frame's dp, pelvis turn and leg rotations of a span of `span_frames`
+// frames in one Ceres problem, with the limb residuals and the smoothness terms. A clip of up to
 // `span_frames` frames is one problem. A longer one is solved span after span: each span also
 // solves the `span_lookahead` frames after it (discarded, so that where a span is cut does not
 // shape its last frames; the next span solves them again), and holds the two frames before it at
-// the previous span's solution, so that the accelerations across the cut are terms of its
-// problem. The result is smooth at a cut because the problem says so; nothing is cross-faded.
-// The upper body keeps its balanced solution, turned with the pelvis so that it keeps its world
-// rotations (run()): its residuals read neither dp nor the legs, and its corrections (end
-// effectors against directions, no contacts) change smoothly.
+// the previous span's solution, so that the accelerations across the cut are terms of its problem.
+// The result is smooth at a cut because the problem says so; nothing is cross-faded. The upper body
+// keeps its balanced solution, turned with the pelvis so that it keeps its world rotations (run()):
+// its residuals read neither dp nor the legs, and its corrections (end effectors against
+// directions, no contacts) change smoothly.
 class SpaceTimePass {
  public:
   SpaceTimePass(const Refinement& refinement, const Limb& limb)
