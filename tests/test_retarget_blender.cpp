@@ -15,8 +15,9 @@
 //              within 0.05 degrees, and its jitter the report's within 1%: the file carries what
 //              odyssey measured, detached segments (below) included.
 //   ladder     the item 1: at balanced and accurate, no limb's mean direction error more
-//              than 0.5 degrees above fast's, the skate no more than 0.01 above fast's, and
-//              penetration plus floating (the report's, which reads the sole) below fast's.
+//              than 0.5 degrees above fast's, nor the hip line's (kHipLine), the skate no more
+//              than 0.01 above fast's, and penetration plus floating (the report's, which reads
+//              the sole) below fast's.
 //   targets    the issue's, per limb (thigh, shin, upper arm, forearm, spine, chest to neck,
 //              neck): a mean direction error under 2 degrees on the walk and 3 on the jump, at
 //              every quality. At balanced and accurate also: a skate ratio no worse than the
@@ -79,6 +80,12 @@ const std::map<std::string, std::vector<std::pair<const char*, const char*>>> kL
     {"left_forearm", {{"left_elbow", "left_wrist"}}},     {"right_forearm", {{"right_elbow", "right_wrist"}}},
     {"spine", {{"spine1", "spine3"}}},                    {"chest_to_neck", {{"spine3", "neck"}}},
     {"neck", {{"neck", "head"}}}};
+// Held to the ladder only: the line from the right hip to the left, the pelvis's roll and turn as
+// a viewer sees them. It is no limb and has no absolute target: fast fits the pelvis to its
+// segments and rolls it to plant both feet (transfer.h), 1-4 degrees off the performer's line on
+// average. The refinement turns the pelvis further (refine.h), and the legs' errors fall as far
+// as it does, so the ladder counts what the turn costs here.
+const std::pair<const char*, const char*> kHipLine = {"right_hip", "left_hip"};
 
 // A target today's retargeting misses: what was measured (Blender, 2026-12-02) and how much worse
 // it may get before the test fails.
@@ -127,6 +134,7 @@ class RetargetBlenderTest : public ::testing::Test {
           for (const auto& [limb, bones] : kLimbs) {
             for (const auto& [parent, child] : bones) limbs[limb].push_back(nlohmann::json::array({parent, child}));
           }
+          limbs["hip_line"].push_back(nlohmann::json::array({kHipLine.first, kHipLine.second}));
           // One "limb" per bone the report measures, for the agreement check.
           for (const auto& [bone, value] : report["metrics"]["result"]["bone_direction_deg_per_bone"].items()) {
             const std::size_t arrow = bone.find("->");
@@ -236,6 +244,7 @@ TEST_F(RetargetBlenderTest, TargetsHoldOrAreKnownMisses) {
       check(limb, value, limb_limit);
       if (refined) check("ladder " + limb, value - fast["limbs"][limb].get<double>(), 0.5);
     }
+    if (refined) check("ladder hip_line", blender["limbs"]["hip_line"].get<double>() - fast["limbs"]["hip_line"].get<double>(), 0.5);
     const double skate = blender["skate_scaled"].get<double>() - blender["source_skate"].get<double>();
     const double jitter = blender["jitter"].get<double>() / blender["source_jitter"].get<double>();
     if (refined) {
