@@ -497,21 +497,9 @@ std::vector<skinning::SurfacePoint> sample_actor_points(const SceneActor& spec, 
 // The rest OBJ beside a point cache: the same path with .obj.
 std::string obj_beside(const std::string& pc2) { return std::filesystem::path(pc2).replace_extension(".obj").string(); }
 
-}  // namespace
-
-SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, LoadCache* cache) {
-  const auto total_start = Clock::now();
-  validate_scene(scene);
-  SceneResult result;
-  result.name = scene.name;
-  result.fps = scene.fps;
-  result.seed = scene.seed;
-  const SceneOutputs& outputs = scene.outputs;
-  // Points are tracked when some camera writes trajectories or a contact sheet.
-  const bool tracking = any_path(outputs.trajectories) || any_path(outputs.previews);
-
-  // Build each distinct source once: retarget a motion, play an animation, read an anime.
-  auto start = Clock::now();
+// Builds each distinct source once (retarget a motion, play an animation, read an anime) and
+// gives every actor of the scene its own placed copy to fill.
+void build_actors(const Scene& scene, const ProgressCallback& progress, LoadCache* cache, SceneResult& result) {
   std::map<std::string, std::shared_ptr<const ActorMotion>> built;
   for (const SceneActor& actor : scene.actors) {
     std::shared_ptr<const ActorMotion>& slot = built[source_key(actor)];
@@ -522,14 +510,16 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
     placed.retargeted = slot->retargeted;
     result.actors.push_back(std::move(placed));
   }
-  result.seconds.retarget = seconds_since(start);
   for (const SceneActor& actor : scene.actors) {
     if (actor.source == ActorSourceKind::motion && actor.retarget.parts == retarget::Parts::body) {
       result.skipped.push_back("actor '" + actor.name + "': fingers and face not solved (parts body: they keep their rest pose)");
     }
   }
+}
 
-  // The timeline, then each clip timed and placed.
+// Each actor's start on the timeline (drawn from its range where it has one), and the shot's
+// frame count: the scene's seconds, or until the last clip ends.
+int time_actors(const Scene& scene, SceneResult& result) {
   double end = 0;
   for (std::size_t a = 0; a < scene.actors.size(); ++a) {
     const SceneActor& spec = scene.actors[a];
@@ -548,91 +538,99 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
     throw std::invalid_argument("scene: " + std::to_string(seconds) + " s at " + std::to_string(scene.fps) +
                                 " fps is more than 10,000,000 frames");
   }
-  result.frames = static_cast<int>(std::floor(seconds * scene.fps * (1 + 1e-9) + 1e-9)) + 1;
-  const int frames = result.frames;
-  std::vector<std::vector<Eigen::Vector2d>> tracks;
-  std::vector<double> radii;
-  for (std::size_t a = 0; a < scene.actors.size(); ++a) {
-    const SceneActor& spec = scene.actors[a];
-    PlacedActor& actor = result.actors[a];
-    const ActorMotion& motion = *actor.motion;
-    const std::vector<double> times = timeline_times(spec, actor.start_s, motion.clip, frames, scene.fps);
-    const Clip timed = motion.clip.sampled_at(times, scene.fps);
-    if (motion.vertex_animation) actor.vertex_animation = motion.vertex_animation->sampled_at(times, scene.fps);
-    const int root = root_joint(actor);
-    const double radius = 0.15 * motion.character.rest_bounds().sizes().z();
-    std::vector<RigidTransform<double>> world(timed.joint_count());
-    timed.world_pose(0, world);
-    const Eigen::Vector3d start_root(world[root].translation.x(), world[root].translation.y(), 0);
-    const double start_heading = heading_deg(motion, world);
-    // Turning by yaw - start_heading about the start root makes the actor face `yaw` there.
-    const auto place = [&](double x, double y, double yaw) {
-      actor.clip = timed;
-      const Eigen::Matrix3d rotation = yaw_rotation(yaw - start_heading);
-      move_clip(actor.clip, rotation, Eigen::Vector3d(x, y, 0) - rotation * start_root);
-      actor.x = x;
-      actor.y = y;
-      actor.yaw_deg = yaw;
-      actor.turn_deg = yaw - start_heading;
-      return root_track(actor.clip, root);
-    };
-    std::vector<Eigen::Vector2d> track;
-    const Placement& placement = spec.placement;
-    if (placement.kind == Placement::Kind::as_recorded) {
-      actor.clip = timed;
-      actor.x = start_root.x();
-      actor.y = start_root.y();
-      actor.yaw_deg = start_heading;
-      track = root_track(actor.clip, root);
-    } else if (placement.kind == Placement::Kind::fixed) {
-      track = place(placement.x, placement.y, placement.yaw_deg);
-    }
-    const auto first_overlap = [&](const std::vector<Eigen::Vector2d>& candidate, int& frame) -> int {
-      for (std::size_t b = 0; b < tracks.size(); ++b) {
-        frame = overlap_frame(candidate, radius, tracks[b], radii[b]);
-        if (frame >= 0) return static_cast<int>(b);
-      }
-      return -1;
-    };
-    int frame = -1;
-    if (placement.kind == Placement::Kind::random) {
-      SeededUniform draw(scene.seed, a);
-      constexpr int kDraws = 200;
-      int other = -1;
-      for (int attempt = 0; attempt < kDraws; ++attempt) {
-        track = place(draw.between(placement.region.min().x(), placement.region.max().x()),
-                      draw.between(placement.region.min().y(), placement.region.max().y()), draw.between(0, 360));
-        other = first_overlap(track, frame);
-        if (other < 0) break;
-      }
-      if (other >= 0) {
-        throw std::invalid_argument("actor '" + spec.name + "': no placement in its region keeps it clear of actor '" +
-                                    scene.actors[other].name + "' (" + std::to_string(kDraws) + " draws); widen the region");
-      }
-    } else {
-      const int other = first_overlap(track, frame);
-      if (other >= 0) {
-        throw std::invalid_argument("actors '" + scene.actors[other].name + "' and '" + spec.name + "' overlap at frame " +
-                                    std::to_string(frame) + ": their roots come within " +
-                                    std::to_string(radii[other] + radius) + " m; place them apart or shift them in time");
-      }
-    }
-    tracks.push_back(std::move(track));
-    radii.push_back(radius);
-  }
+  return static_cast<int>(std::floor(seconds * scene.fps * (1 + 1e-9) + 1e-9)) + 1;
+}
 
-  // Props, cameras, points.
-  const StreamProps props = build_props(scene.props);
-  const Framing framing = frame_actors(result.actors);
-  for (std::size_t c = 0; c < scene.cameras.size(); ++c) {
-    result.cameras.push_back(make_camera(scene.cameras[c], scene, result.actors, framing, frames, c, result.notes));
-    result.camera_names.push_back(scene.cameras[c].name);
+// Where an actor's root goes over the shot, and how close another may come (its radius).
+struct Footprint {
+  std::vector<Eigen::Vector2d> track;
+  double radius = 0;
+};
+
+// The index of the first footprint `candidate` overlaps, and the frame (-1 and -1: none).
+int first_overlap(const Footprint& candidate, const std::vector<Footprint>& placed, int& frame) {
+  for (std::size_t b = 0; b < placed.size(); ++b) {
+    frame = overlap_frame(candidate.track, candidate.radius, placed[b].track, placed[b].radius);
+    if (frame >= 0) return static_cast<int>(b);
   }
-  result.prop_names = props.names;
-  result.props = props.character;
-  std::vector<StreamActor> stream_actors(scene.actors.size());
+  frame = -1;
+  return -1;
+}
+
+// Actor a's clip timed onto the shot's frames and placed as its spec says (as recorded, at a fixed
+// spot, or drawn in its region), clear of the actors placed before it; returns its footprint.
+Footprint place_actor(const Scene& scene, std::size_t a, int frames, const std::vector<Footprint>& placed, PlacedActor& actor) {
+  const SceneActor& spec = scene.actors[a];
+  const ActorMotion& motion = *actor.motion;
+  const std::vector<double> times = timeline_times(spec, actor.start_s, motion.clip, frames, scene.fps);
+  const Clip timed = motion.clip.sampled_at(times, scene.fps);
+  if (motion.vertex_animation) actor.vertex_animation = motion.vertex_animation->sampled_at(times, scene.fps);
+  const int root = root_joint(actor);
+  std::vector<RigidTransform<double>> world(timed.joint_count());
+  timed.world_pose(0, world);
+  const Eigen::Vector3d start_root(world[root].translation.x(), world[root].translation.y(), 0);
+  const double start_heading = heading_deg(motion, world);
+  Footprint footprint;
+  footprint.radius = 0.15 * motion.character.rest_bounds().sizes().z();
+  // Turning by yaw - start_heading about the start root makes the actor face `yaw` there.
+  const auto place = [&](double x, double y, double yaw) {
+    actor.clip = timed;
+    const Eigen::Matrix3d rotation = yaw_rotation(yaw - start_heading);
+    move_clip(actor.clip, rotation, Eigen::Vector3d(x, y, 0) - rotation * start_root);
+    actor.x = x;
+    actor.y = y;
+    actor.yaw_deg = yaw;
+    actor.turn_deg = yaw - start_heading;
+    footprint.track = root_track(actor.clip, root);
+  };
+  const Placement& placement = spec.placement;
+  int frame = -1;
+  if (placement.kind == Placement::Kind::random) {
+    SeededUniform draw(scene.seed, a);
+    constexpr int kDraws = 200;
+    int other = -1;
+    for (int attempt = 0; attempt < kDraws; ++attempt) {
+      place(draw.between(placement.region.min().x(), placement.region.max().x()),
+            draw.between(placement.region.min().y(), placement.region.max().y()), draw.between(0, 360));
+      other = first_overlap(footprint, placed, frame);
+      if (other < 0) break;
+    }
+    if (other >= 0) {
+      throw std::invalid_argument("actor '" + spec.name + "': no placement in its region keeps it clear of actor '" +
+                                  scene.actors[other].name + "' (" + std::to_string(kDraws) + " draws); widen the region");
+    }
+    return footprint;
+  }
+  if (placement.kind == Placement::Kind::as_recorded) {
+    actor.clip = timed;
+    actor.x = start_root.x();
+    actor.y = start_root.y();
+    actor.yaw_deg = start_heading;
+    footprint.track = root_track(actor.clip, root);
+  } else {
+    place(placement.x, placement.y, placement.yaw_deg);
+  }
+  if (const int other = first_overlap(footprint, placed, frame); other >= 0) {
+    throw std::invalid_argument("actors '" + scene.actors[other].name + "' and '" + spec.name + "' overlap at frame " +
+                                std::to_string(frame) + ": their roots come within " +
+                                std::to_string(placed[other].radius + footprint.radius) + " m; place them apart or shift them in time");
+  }
+  return footprint;
+}
+
+// What the streams read: every actor (its points sampled when points are tracked) and the props
+// (with theirs).
+struct StreamInputs {
+  std::vector<StreamActor> actors;
+  StreamProps props;
+};
+
+StreamInputs stream_inputs(const Scene& scene, const StreamProps& props, bool tracking, SceneResult& result) {
+  const SceneOutputs& outputs = scene.outputs;
+  StreamInputs inputs;
+  inputs.actors.resize(scene.actors.size());
   for (std::size_t a = 0; a < scene.actors.size(); ++a) {
-    StreamActor& actor = stream_actors[a];
+    StreamActor& actor = inputs.actors[a];
     actor.name = scene.actors[a].name;
     const ActorMotion& motion = *result.actors[a].motion;
     actor.character = &motion.character;
@@ -646,43 +644,50 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
       result.actors[a].points = count;
     }
   }
-  StreamProps stream_props = props;
+  inputs.props = props;
   if (tracking && outputs.prop_points > 0) {
     skinning::SamplingOptions options;
     options.count = outputs.prop_points;
     options.seed = scene.seed + 1000;
-    stream_props.points = skinning::sample_surface_points(stream_props.character, options);
+    inputs.props.points = skinning::sample_surface_points(inputs.props.character, options);
   }
-  if (!tracking) {
-    result.skipped.push_back("tracked points, visibility and occluder rasterising: no trajectories or previews asked for");
-  }
+  return inputs;
+}
 
-  // Sinks, each writing under a staged name.
-  io::StagedOutputs staged;
+// The streams' sinks (contact sheets, trajectory files, point caches with their rest OBJs), each
+// writing under a staged name, and the cameras as the streams see them.
+struct Sinks {
   std::vector<std::unique_ptr<io::TrajectoryFileWriter>> trajectory_writers;
   std::vector<std::unique_ptr<io::Pc2Writer>> cache_writers;
   std::vector<std::unique_ptr<StreamSink>> sinks;
-  std::vector<StreamCamera> stream_cameras(scene.cameras.size());
+  std::vector<StreamCamera> cameras;
+};
+
+Sinks open_sinks(const Scene& scene, const StreamInputs& inputs, io::StagedOutputs& staged, SceneResult& result) {
+  const SceneOutputs& outputs = scene.outputs;
+  Sinks out;
+  out.cameras.resize(scene.cameras.size());
   for (std::size_t c = 0; c < scene.cameras.size(); ++c) {
-    stream_cameras[c].name = scene.cameras[c].name;
-    stream_cameras[c].path = &result.cameras[c];
-    stream_cameras[c].own_actor = scene.cameras[c].kind == SceneCamera::Kind::ego ? scene.cameras[c].actor : -1;
-    stream_cameras[c].preview = !outputs.previews.empty() && !outputs.previews[c].empty();
-    stream_cameras[c].tracks = (!outputs.trajectories.empty() && !outputs.trajectories[c].empty()) || stream_cameras[c].preview;
-    if (stream_cameras[c].preview) {
-      sinks.push_back(std::make_unique<ContactSheetSink>(static_cast<int>(c), staged.stage(outputs.previews[c])));
+    StreamCamera& camera = out.cameras[c];
+    camera.name = scene.cameras[c].name;
+    camera.path = &result.cameras[c];
+    camera.own_actor = scene.cameras[c].kind == SceneCamera::Kind::ego ? scene.cameras[c].actor : -1;
+    camera.preview = !outputs.previews.empty() && !outputs.previews[c].empty();
+    camera.tracks = (!outputs.trajectories.empty() && !outputs.trajectories[c].empty()) || camera.preview;
+    if (camera.preview) {
+      out.sinks.push_back(std::make_unique<ContactSheetSink>(static_cast<int>(c), staged.stage(outputs.previews[c])));
       result.outputs.push_back(outputs.previews[c]);
     }
   }
   if (any_path(outputs.trajectories)) {
     const io::TrajectoryFileHeader header =
-        trajectory_file_header(stream_actors, scene.props.empty() ? nullptr : &stream_props, frames, scene.fps);
+        trajectory_file_header(inputs.actors, scene.props.empty() ? nullptr : &inputs.props, result.frames, scene.fps);
     if (header.points == 0) throw std::invalid_argument("scene: trajectories asked for, but no points to track");
     for (std::size_t c = 0; c < scene.cameras.size(); ++c) {
       if (outputs.trajectories[c].empty()) continue;
-      trajectory_writers.push_back(
+      out.trajectory_writers.push_back(
           std::make_unique<io::TrajectoryFileWriter>(staged.stage(outputs.trajectories[c]), header, outputs.compress));
-      sinks.push_back(std::make_unique<TrajectorySink>(static_cast<int>(c), *trajectory_writers.back()));
+      out.sinks.push_back(std::make_unique<TrajectorySink>(static_cast<int>(c), *out.trajectory_writers.back()));
       result.outputs.push_back(outputs.trajectories[c]);
     }
   }
@@ -695,38 +700,45 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
     const std::string obj = a < outputs.rest_objs.size() && !outputs.rest_objs[a].empty() ? outputs.rest_objs[a]
                                                                                           : obj_beside(outputs.point_caches[a]);
     io::write_rest_obj(staged.stage(obj), character);
-    cache_writers.push_back(std::make_unique<io::Pc2Writer>(staged.stage(outputs.point_caches[a]), vertices, frames));
-    sinks.push_back(std::make_unique<PointCacheSink>(static_cast<int>(a), *cache_writers.back()));
+    out.cache_writers.push_back(std::make_unique<io::Pc2Writer>(staged.stage(outputs.point_caches[a]), vertices, result.frames));
+    out.sinks.push_back(std::make_unique<PointCacheSink>(static_cast<int>(a), *out.cache_writers.back()));
     result.outputs.push_back(outputs.point_caches[a]);
     result.outputs.push_back(obj);
   }
+  return out;
+}
 
-  start = Clock::now();
-  if (!sinks.empty()) {
-    StreamOptions options;
-    options.chunk_frames = outputs.chunk_frames;
-    options.threads = outputs.threads;
-    if (progress) {
-      options.on_chunk = [&](int done, int total) {
-        progress(ProgressEvent{"export", std::to_string(done) + " of " + std::to_string(total) + " frames", nullptr, done, total});
-      };
-    }
-    std::vector<StreamSink*> sink_pointers;
-    for (const auto& sink : sinks) sink_pointers.push_back(sink.get());
-    result.streams = run_streams(stream_actors, scene.props.empty() ? nullptr : &stream_props, stream_cameras,
-                                 sink_pointers, options);
-    for (const auto& writer : trajectory_writers) writer->close();
-    for (const auto& writer : cache_writers) writer->close();
-    for (std::size_t a = 0; a < scene.actors.size(); ++a) {
-      const long skipped = frames - result.streams.actor_mesh_frames[a];
-      if (tracking && skipped > 0) {
-        result.skipped.push_back("actor '" + scene.actors[a].name + "': mesh not skinned in " + std::to_string(skipped) +
-                                 " of " + std::to_string(frames) + " frames (no camera could see it, no point cache asked)");
-      }
+// Runs the streams into the sinks and closes their files; notes the actors whose mesh was skinned
+// in fewer frames than the shot has.
+void run_sinks(const Scene& scene, const StreamInputs& inputs, Sinks& sinks, bool tracking, const ProgressCallback& progress,
+               SceneResult& result) {
+  if (sinks.sinks.empty()) return;
+  StreamOptions options;
+  options.chunk_frames = scene.outputs.chunk_frames;
+  options.threads = scene.outputs.threads;
+  if (progress) {
+    options.on_chunk = [&](int done, int total) {
+      progress(ProgressEvent{"export", std::to_string(done) + " of " + std::to_string(total) + " frames", nullptr, done, total});
+    };
+  }
+  std::vector<StreamSink*> sink_pointers;
+  for (const auto& sink : sinks.sinks) sink_pointers.push_back(sink.get());
+  result.streams =
+      run_streams(inputs.actors, scene.props.empty() ? nullptr : &inputs.props, sinks.cameras, sink_pointers, options);
+  for (const auto& writer : sinks.trajectory_writers) writer->close();
+  for (const auto& writer : sinks.cache_writers) writer->close();
+  for (std::size_t a = 0; a < scene.actors.size(); ++a) {
+    const long skipped = result.frames - result.streams.actor_mesh_frames[a];
+    if (tracking && skipped > 0) {
+      result.skipped.push_back("actor '" + scene.actors[a].name + "': mesh not skinned in " + std::to_string(skipped) + " of " +
+                               std::to_string(result.frames) + " frames (no camera could see it, no point cache asked)");
     }
   }
-  result.seconds.streams = seconds_since(start);
+}
 
+// The camera paths and GLBs the scene asks for, staged.
+void write_scene_files(const Scene& scene, io::StagedOutputs& staged, SceneResult& result) {
+  const SceneOutputs& outputs = scene.outputs;
   for (std::size_t c = 0; c < outputs.camera_paths.size(); ++c) {
     if (outputs.camera_paths[c].empty()) continue;
     io::write_camera_path_json(staged.stage(outputs.camera_paths[c]), result.cameras[c]);
@@ -756,11 +768,12 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
                         result.fps);
     result.outputs.push_back(outputs.scene_glb);
   }
-  if (!outputs.report.empty()) result.outputs.push_back(outputs.report);
-  for (const std::string& path : outputs.actor_reports) {
-    if (!path.empty()) result.outputs.push_back(path);
-  }
-  result.seconds.total = seconds_since(total_start);
+}
+
+// Each actor's report (its retargeting report with the scene's camera and timings) and the
+// scene's, staged; they list every output, so they come last.
+void write_reports(const Scene& scene, io::StagedOutputs& staged, SceneResult& result) {
+  const SceneOutputs& outputs = scene.outputs;
   for (std::size_t a = 0; a < outputs.actor_reports.size(); ++a) {
     if (outputs.actor_reports[a].empty()) continue;
     nlohmann::ordered_json json = actor_motion_report_json(*result.actors[a].motion);
@@ -780,6 +793,56 @@ SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, Load
   if (!outputs.report.empty()) {
     io::write_file_atomically(staged.stage(outputs.report), scene_report_json(result).dump(2) + "\n");
   }
+}
+
+}  // namespace
+
+SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, LoadCache* cache) {
+  const auto total_start = Clock::now();
+  validate_scene(scene);
+  SceneResult result;
+  result.name = scene.name;
+  result.fps = scene.fps;
+  result.seed = scene.seed;
+  const SceneOutputs& outputs = scene.outputs;
+  // Points are tracked when some camera writes trajectories or a contact sheet.
+  const bool tracking = any_path(outputs.trajectories) || any_path(outputs.previews);
+
+  auto start = Clock::now();
+  build_actors(scene, progress, cache, result);
+  result.seconds.retarget = seconds_since(start);
+  result.frames = time_actors(scene, result);
+  std::vector<Footprint> placed;
+  for (std::size_t a = 0; a < scene.actors.size(); ++a) {
+    placed.push_back(place_actor(scene, a, result.frames, placed, result.actors[a]));
+  }
+
+  // Props, cameras, points.
+  const StreamProps props = build_props(scene.props);
+  const Framing framing = frame_actors(result.actors);
+  for (std::size_t c = 0; c < scene.cameras.size(); ++c) {
+    result.cameras.push_back(make_camera(scene.cameras[c], scene, result.actors, framing, result.frames, c, result.notes));
+    result.camera_names.push_back(scene.cameras[c].name);
+  }
+  result.prop_names = props.names;
+  result.props = props.character;
+  const StreamInputs inputs = stream_inputs(scene, props, tracking, result);
+  if (!tracking) {
+    result.skipped.push_back("tracked points, visibility and occluder rasterising: no trajectories or previews asked for");
+  }
+
+  io::StagedOutputs staged;
+  Sinks sinks = open_sinks(scene, inputs, staged, result);
+  start = Clock::now();
+  run_sinks(scene, inputs, sinks, tracking, progress, result);
+  result.seconds.streams = seconds_since(start);
+  write_scene_files(scene, staged, result);
+  if (!outputs.report.empty()) result.outputs.push_back(outputs.report);
+  for (const std::string& path : outputs.actor_reports) {
+    if (!path.empty()) result.outputs.push_back(path);
+  }
+  result.seconds.total = seconds_since(total_start);
+  write_reports(scene, staged, result);
   staged.commit();
   return result;
 }
