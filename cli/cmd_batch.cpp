@@ -125,6 +125,86 @@ std::vector<std::string> command_for_script(const std::vector<std::string>& argu
   return command;
 }
 
+// The command line's retargeting settings and outputs, which a job keeps where it does not say.
+batch::JobDefaults job_defaults_from(const Args& args) {
+  batch::JobDefaults defaults;
+  defaults.request = retarget_settings_from(args, "", "");
+  const auto outputs = batch::parse_job_outputs(args.get("outputs"));
+  if (!outputs) throw UsageError(std::string("--outputs expects a list of ") + batch::kJobOutputNames + ", got '" + args.get("outputs") + "'");
+  defaults.outputs = *outputs;
+  return defaults;
+}
+
+// The jobs the command line asks for: a manifest's, or every motion onto every character.
+std::vector<batch::Job> jobs_from(const Args& args, const batch::JobDefaults& defaults) {
+  std::vector<batch::Job> jobs;
+  if (args.has("manifest")) {
+    if (args.has("motions") || args.has("characters")) throw UsageError("--manifest lists the jobs; leave out --motions and --characters");
+    jobs = batch::read_manifest(args.get("manifest"), defaults);
+  } else {
+    if (!args.has("motions") || !args.has("characters")) throw UsageError("give --motions and --characters, or --manifest");
+    jobs = batch::cross_product_jobs(batch::find_input_files(args.get_list("motions"), batch::kMotionExtensions, "motion"),
+                                     batch::find_input_files(args.get_list("characters"), batch::kCharacterExtensions, "character"),
+                                     defaults);
+  }
+  if (jobs.empty()) throw UsageError("no jobs: the lists are empty");
+  batch::check_job_names(jobs);
+  return jobs;
+}
+
+// How the batch runs: its folder, workers, limits, gates, shard, and the settings it records.
+batch::BatchOptions batch_options_from(const Args& args, const batch::JobDefaults& defaults) {
+  batch::BatchOptions options;
+  options.out = args.get("out");
+  const long long cores = std::max(1u, std::thread::hardware_concurrency());
+  options.workers = static_cast<int>(args.has("jobs") ? args.get_int("jobs") : cores);
+  if (options.workers < 1 || options.workers > 1024) throw UsageError("--jobs expects 1 to 1024");
+  if (args.has("timeout")) {
+    options.timeout_s = args.get_double("timeout");
+    if (!(options.timeout_s > 0)) throw UsageError("--timeout expects seconds above 0");
+  }
+  if (args.has("max-memory")) {
+    const double gib = args.get_double("max-memory");
+    if (!(gib > 0)) throw UsageError("--max-memory expects GiB above 0");
+    options.memory_limit_bytes = static_cast<std::size_t>(gib * 1024 * 1024 * 1024);
+  }
+  options.gates = gates_from(args);
+  options.settings = batch::request_settings_json(defaults.request, defaults.outputs);
+  if (args.has("shard")) {
+    try {
+      options.shard = batch::parse_shard(args.get("shard"));
+    } catch (const std::invalid_argument& error) {
+      throw UsageError(error.what());
+    }
+  }
+  return options;
+}
+
+// --slurm-script: an sbatch script that runs this command as a job array of shards.
+void write_slurm_script(const Args& args, const std::vector<std::string>& arguments, std::size_t job_count, int workers) {
+  const std::string out = args.get("out");
+  batch::SlurmScriptOptions script;
+  const long long tasks = args.has("slurm-tasks") ? args.get_int("slurm-tasks") : std::min<long long>(4, static_cast<long long>(job_count));
+  if (tasks < 1 || tasks > 100000) throw UsageError("--slurm-tasks expects 1 to 100000");
+  const long long cpus = args.has("slurm-cpus") ? args.get_int("slurm-cpus") : (args.has("jobs") ? workers : 4);
+  if (cpus < 1 || cpus > 1024) throw UsageError("--slurm-cpus expects 1 to 1024");
+  script.tasks = static_cast<int>(tasks);
+  script.cpus_per_task = static_cast<int>(cpus);
+  script.memory_mb = args.has("slurm-mem") ? args.get_int("slurm-mem") : 3072 * cpus;
+  script.time_limit_minutes = args.has("slurm-time") ? args.get_int("slurm-time") : 1440;
+  if (script.memory_mb < 1 || script.time_limit_minutes < 1) throw UsageError("--slurm-mem and --slurm-time expect positive numbers");
+  script.partition = args.get_optional("slurm-partition").value_or("");
+  script.working_folder = fs::current_path().string();
+  fs::create_directories(out);
+  script.log_folder = fs::absolute(out).lexically_normal().string();
+  script.command = command_for_script(arguments);
+  const std::string path = args.get("slurm-script");
+  io::write_file_atomically(path, batch::slurm_script(script));
+  fs::permissions(path, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add);
+  std::printf("wrote %s: %zu jobs in %d shards of %d CPUs each; submit with: sbatch %s; then: odyssey batch-report %s\n",
+              path.c_str(), job_count, script.tasks, script.cpus_per_task, path.c_str(), out.c_str());
+}
+
 }  // namespace
 
 int run_batch(const std::vector<std::string>& arguments) {
@@ -158,71 +238,11 @@ int run_batch(const std::vector<std::string>& arguments) {
   if (!args.parse(arguments)) return 0;
 
   if (args.has("threads")) throw UsageError("--threads: a batch runs one thread per job and --jobs jobs at once; use --jobs");
-  const std::string out = args.get("out");
-  batch::JobDefaults defaults;
-  defaults.request = retarget_settings_from(args, "", "");
-  const auto outputs = batch::parse_job_outputs(args.get("outputs"));
-  if (!outputs) throw UsageError(std::string("--outputs expects a list of ") + batch::kJobOutputNames + ", got '" + args.get("outputs") + "'");
-  defaults.outputs = *outputs;
-
-  std::vector<batch::Job> jobs;
-  if (args.has("manifest")) {
-    if (args.has("motions") || args.has("characters")) throw UsageError("--manifest lists the jobs; leave out --motions and --characters");
-    jobs = batch::read_manifest(args.get("manifest"), defaults);
-  } else {
-    if (!args.has("motions") || !args.has("characters")) throw UsageError("give --motions and --characters, or --manifest");
-    jobs = batch::cross_product_jobs(batch::find_input_files(args.get_list("motions"), batch::kMotionExtensions, "motion"),
-                                     batch::find_input_files(args.get_list("characters"), batch::kCharacterExtensions, "character"),
-                                     defaults);
-  }
-  if (jobs.empty()) throw UsageError("no jobs: the lists are empty");
-  batch::check_job_names(jobs);
-
-  batch::BatchOptions options;
-  options.out = out;
-  const long long cores = std::max(1u, std::thread::hardware_concurrency());
-  options.workers = static_cast<int>(args.has("jobs") ? args.get_int("jobs") : cores);
-  if (options.workers < 1 || options.workers > 1024) throw UsageError("--jobs expects 1 to 1024");
-  if (args.has("timeout")) {
-    options.timeout_s = args.get_double("timeout");
-    if (!(options.timeout_s > 0)) throw UsageError("--timeout expects seconds above 0");
-  }
-  if (args.has("max-memory")) {
-    const double gib = args.get_double("max-memory");
-    if (!(gib > 0)) throw UsageError("--max-memory expects GiB above 0");
-    options.memory_limit_bytes = static_cast<std::size_t>(gib * 1024 * 1024 * 1024);
-  }
-  options.gates = gates_from(args);
-  options.settings = batch::request_settings_json(defaults.request, defaults.outputs);
-  if (args.has("shard")) {
-    try {
-      options.shard = batch::parse_shard(args.get("shard"));
-    } catch (const std::invalid_argument& error) {
-      throw UsageError(error.what());
-    }
-  }
-
+  const batch::JobDefaults defaults = job_defaults_from(args);
+  const batch::BatchOptions options = batch_options_from(args, defaults);
+  std::vector<batch::Job> jobs = jobs_from(args, defaults);
   if (args.has("slurm-script")) {
-    batch::SlurmScriptOptions script;
-    const long long tasks = args.has("slurm-tasks") ? args.get_int("slurm-tasks") : std::min<long long>(4, static_cast<long long>(jobs.size()));
-    if (tasks < 1 || tasks > 100000) throw UsageError("--slurm-tasks expects 1 to 100000");
-    const long long cpus = args.has("slurm-cpus") ? args.get_int("slurm-cpus") : (args.has("jobs") ? options.workers : 4);
-    if (cpus < 1 || cpus > 1024) throw UsageError("--slurm-cpus expects 1 to 1024");
-    script.tasks = static_cast<int>(tasks);
-    script.cpus_per_task = static_cast<int>(cpus);
-    script.memory_mb = args.has("slurm-mem") ? args.get_int("slurm-mem") : 3072 * cpus;
-    script.time_limit_minutes = args.has("slurm-time") ? args.get_int("slurm-time") : 1440;
-    if (script.memory_mb < 1 || script.time_limit_minutes < 1) throw UsageError("--slurm-mem and --slurm-time expect positive numbers");
-    script.partition = args.get_optional("slurm-partition").value_or("");
-    script.working_folder = fs::current_path().string();
-    fs::create_directories(out);
-    script.log_folder = fs::absolute(out).lexically_normal().string();
-    script.command = command_for_script(arguments);
-    const std::string path = args.get("slurm-script");
-    io::write_file_atomically(path, batch::slurm_script(script));
-    fs::permissions(path, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add);
-    std::printf("wrote %s: %zu jobs in %d shards of %d CPUs each; submit with: sbatch %s; then: odyssey batch-report %s\n",
-                path.c_str(), jobs.size(), script.tasks, script.cpus_per_task, path.c_str(), out.c_str());
+    write_slurm_script(args, arguments, jobs.size(), options.workers);
     return 0;
   }
 
