@@ -109,6 +109,10 @@ void print_result(const retarget::RetargetReport& report) {
   }
   std::printf("  branch directions      mean %.3f deg, max %.3f deg (the rigs' builds: hip width, shoulder slope)\n",
               result.branch_direction.mean_deg, result.branch_direction.max_deg);
+  if (result.hip_line.samples > 0) {
+    std::printf("  hip line               mean %.3f deg, max %.3f deg (the pelvis's roll and turn)\n", result.hip_line.mean_deg,
+                result.hip_line.max_deg);
+  }
   std::printf("  end-effector error     mean %.4f m, max %.4f m\n", result.end_effector_mean_m, result.end_effector_max_m);
   std::printf("  foot skate ratio       %.4f (%.4f), thresholds scaled by the scale; GMD's fixed 5 cm, 0.5 m/s: %.4f\n",
               result.foot_skate_ratio, source.foot_skate_ratio, result.foot_skate_ratio_gmd);

@@ -159,8 +159,10 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
   }
   const int source_pelvis = rig.source_joint(canonical::pelvis);
   const int target_pelvis = rig.target_joint(canonical::pelvis);
+  const auto paired = [&rig](int c) { return rig.source_map.mapped(c) && rig.target_map.mapped(c); };
+  const bool hips = paired(canonical::left_hip) && paired(canonical::right_hip);
   FramePose source_pose(source, source_feet.levelling), target_pose(result, target_feet.levelling);
-  Accumulator effector_error;
+  Accumulator effector_error, hip_line;
   for (int f = 0; f < result.frame_count(); ++f) {
     source_pose.pose(source, f, rig.scale);
     target_pose.pose(result, f, 1.0);
@@ -170,12 +172,20 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
       const Eigen::Vector3d target_direction = target_pose.position[segment.target_end] - target_pose.position[segment.target_start];
       bone.error.add(angle_deg(source_direction, target_direction));
     }
+    if (hips) {
+      const Eigen::Vector3d source_line =
+          source_pose.position[rig.source_joint(canonical::left_hip)] - source_pose.position[rig.source_joint(canonical::right_hip)];
+      const Eigen::Vector3d target_line =
+          target_pose.position[rig.target_joint(canonical::left_hip)] - target_pose.position[rig.target_joint(canonical::right_hip)];
+      hip_line.add(angle_deg(source_line, target_line));
+    }
     for (int c : effectors) {
       const Eigen::Vector3d target_relative = target_pose.position[rig.target_joint(c)] - target_pose.position[target_pelvis];
       const Eigen::Vector3d source_relative = source_pose.position[rig.source_joint(c)] - source_pose.position[source_pelvis];
       effector_error.add((target_relative - source_relative).norm());
     }
   }
+  metrics.hip_line = hip_line.direction();
   metrics.end_effector_mean_m = effector_error.mean();
   metrics.end_effector_max_m = effector_error.max;
 

@@ -11,6 +11,9 @@
 // clavicles or shoulders, a wrist's fingers) have no single bone direction: the angles between
 // them are the rig's build (hip width, shoulder slope), which no rotation can change. They are
 // reported apart, as `branch_direction`, with the same definition.
+// Hip line error, degrees: per frame, the angle between the source's right hip -> left hip line
+// and the target's, when both hips are paired. No limb starts at the pelvis, so this is where
+// the pelvis's roll and turn show (the rest alignment fits this lateral pair, rig.h).
 // End-effector error, m: per frame and paired head, wrist and ankle e,
 //   | (p_T(e) - p_T(pelvis)) - s (p_S(e) - p_S(pelvis)) |,   mean and max.
 // Foot skate ratio: over every foot and every pair of consecutive frames (t, t+1), the share where
@@ -57,6 +60,7 @@ struct RetargetMetrics {
   std::vector<NamedDirectionError> limbs;  // limbs that have chain bones, canonical order
   std::vector<NamedDirectionError> bones;  // every chain bone
   DirectionError branch_direction;
+  DirectionError hip_line;  // no samples when a rig lacks a hip
   double end_effector_mean_m = 0, end_effector_max_m = 0;
   double foot_skate_ratio = 0;      // scale-aware (above)
   double foot_skate_ratio_gmd = 0;  // fixed thresholds (above)

@@ -27,11 +27,18 @@ BoneMap identity_map(const Skeleton& skeleton) {
   return map;
 }
 
-// A clip on legs() whose every joint is placed by translation: `positions[f][j]` is joint j's
-// world position in frame f (rotations identity, so local translation = world difference).
-Clip placed(const std::vector<std::vector<Vector3d>>& positions, double fps) {
+// pelvis (0, 0, 1); hips (+-0.1, 0, 0.95); knees (+-0.1, 0, 0.5).
+Skeleton hips() {
+  return Skeleton({"pelvis", "left_hip", "left_knee", "right_hip", "right_knee"}, {-1, 0, 1, 0, 3},
+                  {Vector3d(0, 0, 1), Vector3d(0.1, 0, -0.05), Vector3d(0, 0, -0.45), Vector3d(-0.1, 0, -0.05), Vector3d(0, 0, -0.45)});
+}
+
+// A clip on a five-joint skeleton (legs() unless given) whose every joint is placed by
+// translation: `positions[f][j]` is joint j's world position in frame f (rotations identity, so
+// local translation = world difference).
+Clip placed(const std::vector<std::vector<Vector3d>>& positions, double fps, const Skeleton& skeleton = legs()) {
   Clip clip;
-  clip.skeleton = legs();
+  clip.skeleton = skeleton;
   clip.fps = fps;
   clip.translated_joints = {0, 1, 2, 3, 4};
   for (const auto& frame : positions) {
@@ -127,6 +134,37 @@ TEST(MetricsTest, BoneDirectionAndEndEffectorByHand) {
   EXPECT_NEAR(metrics.branch_direction.max_deg, 0.0, 1e-9);  // pelvis -> knees untouched
   EXPECT_NEAR(metrics.end_effector_mean_m, 0.05, 1e-12);
   EXPECT_NEAR(metrics.end_effector_max_m, 0.1, 1e-12);
+}
+
+// The hip line. The result raises its left hip by 0.2 tan(10 deg) over the source's (the hips
+// 0.2 m apart), so the line from the right hip to the left turns 10 degrees in one frame of two;
+// the knees stay. legs() has no hips: no samples.
+TEST(MetricsTest, HipLineByHand) {
+  const Skeleton skeleton = hips();
+  const BoneMap map = identity_map(skeleton);
+  const std::vector<Vector3d> source_frame = {Vector3d(0, 0, 1), Vector3d(0.1, 0, 0.95), Vector3d(0.1, 0, 0.5),
+                                              Vector3d(-0.1, 0, 0.95), Vector3d(-0.1, 0, 0.5)};
+  std::vector<Vector3d> rolled = source_frame;
+  const double degrees = 10;
+  rolled[1].z() += 0.2 * std::tan(degrees * std::numbers::pi / 180);
+  const Clip source = placed({source_frame, source_frame}, 30, skeleton);
+  const Clip result = placed({source_frame, rolled}, 30, skeleton);
+  const RetargetRig rig = build_retarget_rig(placed({source_frame}, 30, skeleton), map, skeleton, map);
+  Feet knees;
+  knees.sides[0] = {{2}, {0.5}};
+  knees.sides[1] = {{4}, {0.5}};
+  FootContacts contacts;
+  contacts.planted = {std::vector<std::uint8_t>(2, 0), std::vector<std::uint8_t>(2, 0)};
+  const RetargetMetrics metrics = result_metrics(rig, source, knees, result, knees, contacts);
+  EXPECT_EQ(metrics.hip_line.samples, 2);
+  EXPECT_NEAR(metrics.hip_line.max_deg, degrees, 1e-9);
+  EXPECT_NEAR(metrics.hip_line.mean_deg, degrees / 2, 1e-9);
+
+  const Fixture fixture;
+  const RetargetMetrics no_hips =
+      result_metrics(fixture.rig, fixture.rest_clip, ankles_on_floor(), fixture.rest_clip, ankles_on_floor(), FootContacts{
+          {std::vector<std::uint8_t>(1, 0), std::vector<std::uint8_t>(1, 0)}});
+  EXPECT_EQ(no_hips.hip_line.samples, 0);
 }
 
 // Scale-aware skate. The target is legs() twice as large (pelvis at 2 m), so s = 2 and the

@@ -11,9 +11,9 @@
 // carries that tilt (limbs_raw).
 //
 // Three kinds of check:
-//   agreement  Blender's per-bone mean direction errors equal the report's per-bone figures
-//              within 0.05 degrees, and its jitter the report's within 1%: the file carries what
-//              odyssey measured, detached segments (below) included.
+//   agreement  Blender's per-bone mean direction errors and hip line equal the report's
+//              figures within 0.05 degrees, and its jitter the report's within 1%: the file
+//              carries what odyssey measured, detached segments (below) included.
 //   ladder     the item 1: at balanced and accurate, no limb's mean direction error more
 //              than 0.5 degrees above fast's, nor the hip line's (kHipLine), the skate no more
 //              than 0.01 above fast's, and penetration plus floating (the report's, which reads
@@ -189,6 +189,8 @@ TEST_F(RetargetBlenderTest, TheFileCarriesWhatTheReportMeasured) {
       ++bones;
     }
     EXPECT_GE(bones, 10) << label;
+    EXPECT_NEAR(blender["limbs"]["hip_line"].get<double>(), report["metrics"]["result"]["hip_line_deg"]["mean"].get<double>(), 0.05)
+        << label << ": hip line";
     const double jitter = report["metrics"]["result"]["jitter_m_per_s2"].get<double>();
     EXPECT_NEAR(blender["jitter"].get<double>(), jitter, 0.01 * jitter) << label;
   }
