@@ -178,6 +178,57 @@ std::vector<int> parents_from_kintree(const ModelArchive& archive, const std::ve
   return parents;
 }
 
+// f (F, 3): vertex indices, each within the template's V vertices.
+void read_faces(const ModelArchive& archive, std::size_t vertices, BodyModel& model) {
+  const NpyArray faces = archive.load_any_shape("f");
+  if (faces.shape().size() != 2 || faces.shape()[1] != 3) {
+    archive.fail("f: shape " + shape_text(faces.shape()) + ", expected (F, 3)");
+  }
+  const std::vector<std::int64_t> face_indices = archive.integers("f", faces);
+  model.faces.resize(Eigen::Index(faces.shape()[0]), 3);
+  for (std::size_t i = 0; i < face_indices.size(); ++i) {
+    if (face_indices[i] < 0 || face_indices[i] >= std::int64_t(vertices)) {
+      archive.fail("f: face " + std::to_string(i / 3) + " names vertex " + std::to_string(face_indices[i]) +
+                   ", outside 0.." + std::to_string(vertices - 1));
+    }
+    model.faces.data()[i] = int(face_indices[i]);
+  }
+}
+
+// How many of shapedirs' directions are shape and how many expression: an SMPL-X file of 400 or
+// more carries 300 shape directions then the expressions, a smaller one an even count split in
+// halves; SMPL and SMPL-H carry shape only.
+void split_shape_directions(const ModelArchive& archive, BodyModel& model) {
+  const std::size_t directions = std::size_t(model.shapedirs.cols());
+  if (model.kind != BodyModelKind::SMPLX) {
+    model.shape_count = int(directions);
+    return;
+  }
+  if (directions >= 400) {
+    model.shape_count = 300;
+  } else if (directions % 2 == 0) {
+    model.shape_count = int(directions / 2);
+  } else {
+    archive.fail("shapedirs: " + std::to_string(directions) +
+                 " directions; an SMPL-X model below 400 needs an even count (shape then expression halves)");
+  }
+  model.expression_count = int(directions) - model.shape_count;
+}
+
+// The hands' pose PCA (SMPL-H and SMPL-X): 45 x 45 components and a 45-vector mean per hand.
+void read_hand_pca(const ModelArchive& archive, BodyModel& model) {
+  const auto components = [&](const std::string& key) {
+    return RowMatrixXd(Eigen::Map<const RowMatrixXd>(archive.finite_doubles(key, archive.load(key, {45, 45})).data(), 45, 45));
+  };
+  const auto mean = [&](const std::string& key) {
+    return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(archive.finite_doubles(key, archive.load(key, {45})).data(), 45));
+  };
+  model.hands_components_left = components("hands_componentsl");
+  model.hands_components_right = components("hands_componentsr");
+  model.hands_mean_left = mean("hands_meanl");
+  model.hands_mean_right = mean("hands_meanr");
+}
+
 BodyModel read_body_model(const std::string& path) {
   const ModelArchive archive(path);
   BodyModel model;
@@ -207,19 +258,7 @@ BodyModel read_body_model(const std::string& path) {
   model.v_template = Eigen::Map<const RowMatrixXd>(archive.finite_doubles("v_template", v_template).data(),
                                                    Eigen::Index(vertices), 3);
 
-  const NpyArray faces = archive.load_any_shape("f");
-  if (faces.shape().size() != 2 || faces.shape()[1] != 3) {
-    archive.fail("f: shape " + shape_text(faces.shape()) + ", expected (F, 3)");
-  }
-  const std::vector<std::int64_t> face_indices = archive.integers("f", faces);
-  model.faces.resize(Eigen::Index(faces.shape()[0]), 3);
-  for (std::size_t i = 0; i < face_indices.size(); ++i) {
-    if (face_indices[i] < 0 || face_indices[i] >= std::int64_t(vertices)) {
-      archive.fail("f: face " + std::to_string(i / 3) + " names vertex " + std::to_string(face_indices[i]) +
-                   ", outside 0.." + std::to_string(vertices - 1));
-    }
-    model.faces.data()[i] = int(face_indices[i]);
-  }
+  read_faces(archive, vertices, model);
 
   const NpyArray j_regressor = archive.load("J_regressor", {joints, vertices});
   model.j_regressor = sparse_from_dense(joints, vertices, archive.finite_doubles("J_regressor", j_regressor));
@@ -251,36 +290,8 @@ BodyModel read_body_model(const std::string& path) {
   }
 
   model.shapedirs = shapedirs_future.get();
-  const std::size_t directions = std::size_t(model.shapedirs.cols());
-  if (model.kind == BodyModelKind::SMPLX) {
-    if (directions >= 400) {
-      model.shape_count = 300;
-    } else if (directions % 2 == 0) {
-      model.shape_count = int(directions / 2);
-    } else {
-      archive.fail("shapedirs: " + std::to_string(directions) +
-                   " directions; an SMPL-X model below 400 needs an even count (shape then expression halves)");
-    }
-    model.expression_count = int(directions) - model.shape_count;
-  } else {
-    model.shape_count = int(directions);
-  }
-
-
-  if (model.kind != BodyModelKind::SMPL) {
-    const auto components = [&](const std::string& key) {
-      return RowMatrixXd(Eigen::Map<const RowMatrixXd>(archive.finite_doubles(key, archive.load(key, {45, 45})).data(),
-                                                       45, 45));
-    };
-    const auto mean = [&](const std::string& key) {
-      return Eigen::VectorXd(
-          Eigen::Map<const Eigen::VectorXd>(archive.finite_doubles(key, archive.load(key, {45})).data(), 45));
-    };
-    model.hands_components_left = components("hands_componentsl");
-    model.hands_components_right = components("hands_componentsr");
-    model.hands_mean_left = mean("hands_meanl");
-    model.hands_mean_right = mean("hands_meanr");
-  }
+  split_shape_directions(archive, model);
+  if (model.kind != BodyModelKind::SMPL) read_hand_pca(archive, model);
 
   // What the file layout cannot show on its own (weights summing to 1, for one). Every value
   // was checked finite as it was decoded, so the dense arrays are not walked again.
