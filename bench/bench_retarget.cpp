@@ -280,8 +280,8 @@ void print_table(const std::vector<Row>& rows) {
               "included, \"solvers\": its solvers alone); bone direction over the mapped chain bones; "
               "source values in brackets\n\n");
   std::printf("| clip | character | setting | frames/s | solvers frames/s | bone dir. mean / max (deg) | worst limb mean (deg) "
-              "| hip line mean (deg) | end effector mean (cm) | skate, scale-aware | skate, GMD | penetration (cm) | floating (cm) | jitter (m/s²) "
-              "| jitter / source's |\n");
+              "| hip line mean (deg) | end effector mean (cm) | skate, scale-aware | skate, GMD | penetration (cm) "
+              "| floating (cm) | jitter (m/s²) | jitter / source's |\n");
   std::printf("|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   for (const Row& row : rows) {
     if (!row.measured) continue;  // filtered out of this run
@@ -294,8 +294,8 @@ void print_table(const std::vector<Row>& rows) {
                 "| %.2f (%.2f) | %.1f (%.1f) | %.2f |\n",
                 row.job->motion->name.c_str(), row.job->target->name.c_str(), row.setting->name.c_str(),
                 thousands(row.fps()).c_str(), solvers.c_str(), m.bone_direction.mean_deg, m.bone_direction.max_deg,
-                limb.error.mean_deg, limb.name.c_str(), m.hip_line.mean_deg, 1e2 * m.end_effector_mean_m, m.foot_skate_ratio, s.foot_skate_ratio,
-                m.foot_skate_ratio_gmd, s.foot_skate_ratio_gmd, m.penetration_cm, s.penetration_cm, m.floating_cm,
+                limb.error.mean_deg, limb.name.c_str(), m.hip_line.mean_deg, 1e2 * m.end_effector_mean_m, m.foot_skate_ratio,
+                s.foot_skate_ratio, m.foot_skate_ratio_gmd, s.foot_skate_ratio_gmd, m.penetration_cm, s.penetration_cm, m.floating_cm,
                 s.floating_cm, m.jitter, s.jitter, jitter_ratio(row));
   }
 }

@@ -161,9 +161,10 @@ TEST(MetricsTest, HipLineByHand) {
   EXPECT_NEAR(metrics.hip_line.mean_deg, degrees / 2, 1e-9);
 
   const Fixture fixture;
+  FootContacts one_frame;
+  one_frame.planted = {std::vector<std::uint8_t>(1, 0), std::vector<std::uint8_t>(1, 0)};
   const RetargetMetrics no_hips =
-      result_metrics(fixture.rig, fixture.rest_clip, ankles_on_floor(), fixture.rest_clip, ankles_on_floor(), FootContacts{
-          {std::vector<std::uint8_t>(1, 0), std::vector<std::uint8_t>(1, 0)}});
+      result_metrics(fixture.rig, fixture.rest_clip, ankles_on_floor(), fixture.rest_clip, ankles_on_floor(), one_frame);
   EXPECT_EQ(no_hips.hip_line.samples, 0);
 }
 
