@@ -216,6 +216,7 @@ nlohmann::ordered_json request_settings_json(const scene::RetargetRequest& reque
           {"model", request.model_path.value_or("")},
           {"refine", {{"weights", weights},
                       {"contact_blend_seconds", refine.contact_blend_seconds},
+                      {"contact_lift_m", refine.contact_lift ? nlohmann::ordered_json(*refine.contact_lift) : nlohmann::ordered_json()},
                       {"window_frames", refine.window_frames},
                       {"span_frames", refine.span_frames},
                       {"span_lookahead", refine.span_lookahead},

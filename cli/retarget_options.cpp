@@ -151,7 +151,11 @@ void add_retarget_settings(Args& args) {
       .option("weights", "LIST",
               "refinement weights over the quality's defaults, NAME=VALUE separated by commas; names: "
               "bone_direction, end_effector, foot_contact, floor, pose, pelvis, pelvis_turn, smoothness, pelvis_smoothness "
-              "(defaults and units: README, retargeting conventions)");
+              "(defaults and units: README, retargeting conventions)")
+      .option("contact-lift", "M",
+              "let a planted foot joint rise with the performer's once the performer's is more than M metres above "
+              "its ground (at the performer's size; the legs bend less at toe-off, the foot leaves the floor earlier; "
+              "README, retargeting conventions) (default: held on the floor through the contact)");
   add_bvh_units_option(args);
   add_betas_option(args);
 }
@@ -177,6 +181,11 @@ scene::RetargetRequest retarget_settings_from(const Args& args, const std::strin
   if (threads < 1 || threads > 1024) throw UsageError("--threads expects 1 to 1024, got " + std::to_string(threads));
   request.refine_options.threads = static_cast<int>(threads);
   if (const auto weights = args.get_optional("weights")) apply_weights(*weights, request.refine_options.weights);
+  if (args.has("contact-lift")) {
+    const double lift = args.get_double("contact-lift");
+    if (!(lift >= 0) || !std::isfinite(lift)) throw UsageError("--contact-lift expects metres >= 0");
+    request.refine_options.contact_lift = lift;
+  }
   const std::string source_rest = args.get("source-rest");
   if (source_rest == "rest") {
     request.options.source_rest = retarget::SourceRest::rest;

@@ -580,6 +580,9 @@ void check_options(const RefineOptions& options) {
   if (!(options.contact_blend_seconds >= 0) || !std::isfinite(options.contact_blend_seconds)) {
     fail("contact_blend_seconds must be a non-negative number, got " + std::to_string(options.contact_blend_seconds));
   }
+  if (options.contact_lift && (!(*options.contact_lift >= 0) || !std::isfinite(*options.contact_lift))) {
+    fail("contact_lift must be a non-negative number of metres, got " + std::to_string(*options.contact_lift));
+  }
   const RefineWeights& w = options.weights;
   const std::pair<const char*, double> weights[] = {
       {"bone_direction", w.bone_direction}, {"end_effector", w.end_effector}, {"foot_contact", w.foot_contact},
@@ -648,7 +651,8 @@ RefineSummary refine(RetargetResult& result, const Clip& source, const RefineOpt
   const Clip& reference = result.transfer.clip;
   const int blend_frames = static_cast<int>(std::lround(options.contact_blend_seconds * reference.fps));
   FrameBuilder planner(model, reference, source, result.source_feet);
-  const MotionPlan plan = plan_motion(model, planner, result.contacts, blend_frames, options.fit_stride);
+  const MotionPlan plan = plan_motion(model, planner, result.source_feet, result.contacts, blend_frames, options.fit_stride,
+                                      options.contact_lift);
   summary.stride = plan.stride;
   summary.height = plan.height;
   const std::size_t frames = summary.frames;

@@ -89,6 +89,16 @@
 //   performer's ball does: transfer.h), moving the joint by the toe's correction holds the toe.
 //   A foot of one joint without a toe (no mesh to find it on) is held flat while planted (its
 //   rest rotation turned about z as the reference turns).
+// - Lift (`contact_lift` d, off by default). A performer's foot is planted while its lowest point
+//   is within 5 cm of the floor (contacts.h), and at toe-off the heel rises well before that ends
+//   (8 cm on the synthetic SMPL-X walk). Held on the floor through it, the target's heel bends
+//   both legs. With d set, the support joint k is wanted at g_k + s e(c_S(t) - d) instead of g_k:
+//   c_S the clearance of the performer's joint that k corresponds to (ankle, ball of the foot; a
+//   toe takes the ball's), s the rig's scale, e() a ramp eased over 2 cm (0 below -1 cm, x above
+//   +1 cm, (x + 1 cm)^2 / 4 cm between). Where the support passes to another joint, the height
+//   the old target implies for the new one is carried and faded out over the contact blend, so the
+//   foot does not step down. The trade (README, "Retargeting as Blender sees it") is the legs and
+//   jitter against a foot that leaves the floor at toe-off.
 //
 // Solvers.
 // - balanced: frame by frame, one small problem per limb with ceres::TinySolver and automatic
@@ -151,6 +161,10 @@ struct RefineOptions {
   Quality quality = Quality::balanced;
   RefineWeights weights;
   double contact_blend_seconds = 0.1;     // fade of a foot correction into and out of a contact
+  // Off (the default): a planted foot's support joint is held on the floor through the contact.
+  // Set (m, at the performer's size): it rises with the performer's corresponding joint once that
+  // is more than this above its ground height (the foot plan below).
+  std::optional<double> contact_lift;
   int window_frames = 64;                 // balanced: frames of one warm-start run
   int span_frames = 1024;                 // accurate: frames one space-time problem keeps
   int span_lookahead = 32;                // accurate: frames after a span it solves too

@@ -399,29 +399,60 @@ std::vector<std::pair<int, int>> contact_runs(const std::vector<std::uint8_t>& p
   return runs;
 }
 
+// How high each point of a target foot should stand above its ground height, frame by frame
+// (lift[k][frame]): s e(c_S - d), the lift of refine.h, for the performer's joint the point
+// corresponds to (a toe: the ball of the foot). Empty when `contact_lift` is off.
+std::vector<std::vector<double>> foot_lift(const RefineModel& model, FrameBuilder& builder, int side, const Foot& source,
+                                           std::optional<double> contact_lift, int frames) {
+  constexpr double kEase = 0.02;  // m, the width of the ramp's eased knee
+  if (!contact_lift) return {};
+  const Foot& foot = model.feet[side];
+  std::vector<std::vector<double>> lift(foot.point_count(), std::vector<double>(frames, 0.0));
+  for (int f = 0; f < frames; ++f) {
+    builder.load(f);
+    for (int k = 0; k < foot.point_count(); ++k) {
+      const std::size_t j = std::min<std::size_t>(static_cast<std::size_t>(k), source.joints.size() - 1);
+      const double x = builder.source_position(source.joints[j]).z() - source.ground_heights[j] - *contact_lift;
+      const double eased = x <= -kEase / 2 ? 0.0 : x >= kEase / 2 ? x : (x + kEase / 2) * (x + kEase / 2) / (2 * kEase);
+      lift[k][f] = model.scale * eased;
+    }
+  }
+  return lift;
+}
+
 // One foot's plan (FootPlan) in its contacts, from its points on the reference moved by dp_plan
-// (`at`): the support point held at its anchor, on the floor. Returns o(t), the correction that
-// takes it there (zero outside contacts).
+// (`at`): the support point held at its anchor, on the floor or, with `lift` (foot_lift; empty:
+// none), lifted. Returns o(t), the correction that takes it there (zero outside contacts).
 std::vector<Eigen::Vector3d> hold_contacts(const Foot& foot, const FootPaths& at, const std::vector<std::pair<int, int>>& runs,
-                                           const std::vector<Eigen::Vector3d>& pelvis_offset, FootPlan& plan) {
+                                           const std::vector<Eigen::Vector3d>& pelvis_offset,
+                                           const std::vector<std::vector<double>>& lift, int blend_frames, FootPlan& plan) {
   const auto support = [&](int f) { return support_point(foot, at, f); };
+  const auto wanted_height = [&](int k, int f) { return foot.point_ground_height(k) + (lift.empty() ? 0.0 : lift[k][f]); };
   std::vector<Eigen::Vector3d> correction(pelvis_offset.size(), Eigen::Vector3d::Zero());
   for (const auto& [first, last] : runs) {
     // The anchor: the first support point's mean horizontal position over the frames it supports;
-    // when the support passes to another point, the anchor passes with it by their offset.
+    // when the support passes to another point, the anchor passes with it by their offset. With a
+    // lift, so does the height: what the old point's target implies for the new one (rigid with
+    // it in this frame) less the new one's own, faded out over the blend.
     int k = support(first);
     int phase_end = first;
     while (phase_end <= last && support(phase_end) == k) ++phase_end;
     Eigen::Vector2d anchor = Eigen::Vector2d::Zero();
     for (int f = first; f < phase_end; ++f) anchor += at[k][f].head<2>();
     anchor /= phase_end - first;
+    double carried = 0;
+    int carried_since = first;
     for (int f = first; f <= last; ++f) {
       const int now = support(f);
       if (now != k) {
         anchor += (at[now][f] - at[k][f]).head<2>();
+        if (!lift.empty()) carried = wanted_height(k, f) + (at[now][f].z() - at[k][f].z()) - wanted_height(now, f);
+        carried_since = f;
         k = now;
       }
-      correction[f] = Eigen::Vector3d(anchor.x(), anchor.y(), foot.point_ground_height(k)) - at[k][f];
+      const int since = f - carried_since;
+      const double fade = since < blend_frames ? smoothstep(1.0 - static_cast<double>(since) / blend_frames) : 0.0;
+      correction[f] = Eigen::Vector3d(anchor.x(), anchor.y(), wanted_height(k, f) + fade * carried) - at[k][f];
       // The toe is rigid with joints[0] in the reference's rotation, which the solver keeps: the
       // joint moved by the toe's correction puts the toe on its anchor.
       plan.joint[f] = static_cast<std::int8_t>(std::min<int>(k, static_cast<int>(foot.joints.size()) - 1));
@@ -502,8 +533,8 @@ RefineModel build_refine_model(const RetargetResult& result) {
   return model;
 }
 
-MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const FootContacts& contacts, int blend_frames,
-                       bool fit_stride_factor) {
+MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const Feet& source_feet, const FootContacts& contacts,
+                       int blend_frames, bool fit_stride_factor, std::optional<double> contact_lift) {
   const int frames = contacts.frame_count();
   ReferencePaths paths = reference_paths(model, builder, frames);
   MotionPlan plan;
@@ -528,7 +559,8 @@ MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const Fo
     feet.follow.assign(frames, 1.0);
     if (foot.joints.size() == 1 && !foot.has_toe) feet.flat.assign(frames, 0.0);
     const std::vector<std::pair<int, int>> runs = contact_runs(contacts.planted[side]);
-    const std::vector<Eigen::Vector3d> correction = hold_contacts(foot, at, runs, plan.pelvis_offset, feet);
+    const std::vector<std::vector<double>> lift = foot_lift(model, builder, side, source_feet[side], contact_lift, frames);
+    const std::vector<Eigen::Vector3d> correction = hold_contacts(foot, at, runs, plan.pelvis_offset, lift, blend_frames, feet);
     fade_around_contacts(runs, correction, plan.pelvis_offset, blend_frames, feet);
   }
   return plan;

@@ -31,6 +31,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -191,6 +192,8 @@ class FrameBuilder {
   // end of its shin, not where the transfer put it).
   const Eigen::Vector3d& reference_position(int joint) const { return reference_placed_.world[joint].translation; }
   const Eigen::Quaterniond& reference_rotation(int joint) const { return reference_placed_.world[joint].rotation; }
+  // Where a source joint is in the loaded frame: levelled, at the performer's size.
+  const Eigen::Vector3d& source_position(int joint) const { return source_pose_.world[joint].translation; }
   // Writes the loaded frame of `out` (a clip laid out as the reference) from a solved pose: every
   // joint placed as above, single-joint feet held flat as the plan says, locals recomputed where
   // a joint's parent or anchor moved.
@@ -211,10 +214,11 @@ class FrameBuilder {
   void place(const FramePose& pose, const MotionPlan* plan);
 };
 
-// The plan (refine.h), from the reference (loaded frame by frame into `builder`) and the source's
-// contacts; blend_frames is contact_blend_seconds in frames; with fit_stride false, k = 1.
-MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const FootContacts& contacts, int blend_frames,
-                       bool fit_stride);
+// The plan (refine.h), from the reference and the source (loaded frame by frame into `builder`),
+// the source's feet and contacts; blend_frames is contact_blend_seconds in frames; with
+// fit_stride false, k = 1; contact_lift as RefineOptions'.
+MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const Feet& source_feet, const FootContacts& contacts,
+                       int blend_frames, bool fit_stride, std::optional<double> contact_lift);
 
 // Buffers for limb_residuals, sized for one limb and reused across evaluations (a jet is large,
 // and a fresh array of them would be zeroed on every call): the limb's pose, which load() fills

@@ -256,6 +256,8 @@ nlohmann::ordered_json actor_report_json(const RetargetedActor& actor) {
     }
     json["settings"]["refine"] = {{"weights", weights},
                                   {"contact_blend_seconds", options.contact_blend_seconds},
+                                  {"contact_lift_m", options.contact_lift ? nlohmann::ordered_json(*options.contact_lift)
+                                                                          : nlohmann::ordered_json()},
                                   {"window_frames", options.window_frames},
                                   {"span_frames", options.span_frames},
                                   {"span_lookahead", options.span_lookahead},

@@ -112,7 +112,7 @@ std::string request_key(const RetargetRequest& r) {
                         betas_policy_name(r.betas)};
   const retarget::RefineOptions& o = r.refine_options;
   for (const retarget::RefineWeightName& entry : retarget::refine_weight_names()) key.push_back(o.weights.*(entry.weight));
-  key.insert(key.end(), {o.contact_blend_seconds, double(o.window_frames), double(o.span_frames), double(o.span_lookahead),
+  key.insert(key.end(), {o.contact_blend_seconds, o.contact_lift.value_or(-1), double(o.window_frames), double(o.span_frames), double(o.span_lookahead),
                          double(o.max_iterations), double(o.span_iterations), o.smoothness_limit, o.pelvis_smoothness_limit, double(o.warm_start),
                          double(o.fit_stride), double(o.threads)});
   return key.dump();

@@ -64,7 +64,8 @@ bool read_played_source(const JsonValue& item, SceneActor& actor, const fs::path
   if (animation && anime) anime->fail("an actor plays an animation or an anime, not both");
   if (const auto motion = item.find("motion")) motion->fail("an actor with " + std::string(anime ? "an anime" : "an animation") +
                                                             " plays it: it takes no motion");
-  for (const char* key : {"model", "betas", "bvh_units", "quality", "parts", "weights", "map", "source_map", "source_rest"}) {
+  for (const char* key : {"model", "betas", "bvh_units", "quality", "parts", "weights", "contact_lift", "map", "source_map",
+                          "source_rest"}) {
     if (const auto value = item.find(key)) value->fail("a retargeting setting, but this actor plays its own motion");
   }
   const double scale = item.find("scale") ? item.member("scale").number_in(1e-9, 1e9) : 1.0;
@@ -129,6 +130,7 @@ void read_retarget_request(const JsonValue& item, SceneActor& actor, const fs::p
       *target = entry.number_in(0, 1e12);
     }
   }
+  if (const auto value = item.find("contact_lift")) r.refine_options.contact_lift = value->number_in(0, 1e3);
   if (const auto value = item.find("source_rest")) {
     const std::string text = value->string();
     if (text == "rest") {
@@ -191,8 +193,8 @@ void read_placement_and_timing(const JsonValue& item, SceneActor& actor) {
 }
 
 SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& base) {
-  item.allow_only({"name", "motion", "character", "model", "betas", "bvh_units", "quality", "parts", "fps", "weights", "map",
-                   "source_map", "source_rest", "placement", "start", "trim", "speed", "points", "sampling", "animation",
+  item.allow_only({"name", "motion", "character", "model", "betas", "bvh_units", "quality", "parts", "fps", "weights",
+                   "contact_lift", "map", "source_map", "source_rest", "placement", "start", "trim", "speed", "points", "sampling", "animation",
                    "anime", "loops", "seconds", "scale", "source_fps", "up"});
   SceneActor actor;
   actor.name = name_of(item, "actor" + std::to_string(index));

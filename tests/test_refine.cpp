@@ -304,6 +304,65 @@ TEST(RefineTest, PelvisTurnsRatherThanALegBends) {
   }
 }
 
+// The lift (refine.h, contact_lift): a planted support joint rises with the performer's once that
+// is more than d above its ground. At toe-off on the CMU walk the performer's heel rises while
+// the ball stays; held on the floor, the heel of a Mixamo-style foot (its ball ~4 cm up when the
+// performer stands flat) bends both legs. With d = 3 cm the legs come closer to the transfer's
+// (RiggedFigure's worst leg mean 0.40 -> 0.17 deg at 120 fps), and a planted foot leaves the floor
+// by no more than the plan lets it: its lowest point stays within 1 cm of s (c - d + 1 cm), c the
+// performer's highest foot joint above its ground (the ease reaches 1 cm below d), 0.9 mm over
+// it at most; penetration + floating stays under the transfer's.
+TEST(RefineTest, ContactLiftLetsTheHeelRiseWithThePerformers) {
+  const std::string character = "RiggedFigure.glb";
+  const RetargetResult& held = refined_by_default(character, Quality::balanced);
+  RefineOptions options = default_refine_options(Quality::balanced);
+  options.contact_lift = 0.03;
+  const RetargetResult lifted = refined(character, options);
+  const auto legs = [](const RetargetResult& result) {
+    double worst = 0;
+    for (const auto& limb : result.report.result_metrics.limbs) {
+      if (limb.name == "left_leg" || limb.name == "right_leg") worst = std::max(worst, limb.error.mean_deg);
+    }
+    return worst;
+  };
+  // How far above the floor the plan allows a planted foot: s (c - d + 1 cm), at least 0.
+  const Clip& source = shared().source;
+  const Feet& source_feet = lifted.source_feet;
+  std::vector<RigidTransform<double>> world(source.joint_count()), target(lifted.transfer.clip.joint_count());
+  double worst_excess = -1, highest = 0;
+  for (int side = 0; side < 2; ++side) {
+    const Foot& foot = lifted.target_feet[side];
+    for (int f = 0; f < source.frame_count(); ++f) {
+      if (!lifted.contacts.planted[side][f]) continue;
+      source.world_pose(f, world);
+      double allowed = 0;
+      for (std::size_t k = 0; k < source_feet[side].joints.size(); ++k) {
+        const Vector3d p = source_feet.levelling * world[source_feet[side].joints[k]].translation;
+        allowed = std::max(allowed, lifted.rig.scale * (p.z() - source_feet[side].ground_heights[k] - *options.contact_lift + 0.01));
+      }
+      lifted.transfer.clip.world_pose(f, target);
+      std::vector<Vector3d> positions;
+      for (const auto& joint : target) positions.push_back(joint.translation);
+      const double clearance = foot_clearance(foot, positions, target[foot.joints[0]].rotation);
+      worst_excess = std::max(worst_excess, clearance - allowed);
+      highest = std::max(highest, clearance);
+    }
+  }
+  std::printf("worst leg %.2f deg lifted, %.2f held (fast 0); planted feet up to %.1f mm off the floor, at most %.1f mm above "
+              "what the lift allows; penetration + floating %.2f cm (held %.2f, fast %.2f)\n",
+              legs(lifted), legs(held), 1000 * highest, 1000 * worst_excess,
+              lifted.report.result_metrics.penetration_cm + lifted.report.result_metrics.floating_cm,
+              held.report.result_metrics.penetration_cm + held.report.result_metrics.floating_cm,
+              shared().fast.at(character).report.result_metrics.penetration_cm +
+                  shared().fast.at(character).report.result_metrics.floating_cm);
+  EXPECT_LT(legs(lifted), legs(held) - 0.1);
+  EXPECT_LT(worst_excess, 0.01);
+  const RetargetMetrics& metrics = lifted.report.result_metrics;
+  const RetargetMetrics& fast = shared().fast.at(character).report.result_metrics;
+  EXPECT_LT(metrics.penetration_cm + metrics.floating_cm, fast.penetration_cm + fast.floating_cm);
+  EXPECT_LE(metrics.foot_skate_ratio, held.report.result_metrics.foot_skate_ratio);
+}
+
 // RobotExpressive's feet hang from the root bone: the refined foot is where its shin ends. While
 // planted, a foot of one joint with a toe (contacts.h) rolls over the toe as the performer's foot
 // does over its ball: the heel rises with the performer's at toe-off while the toe stays on the
@@ -398,6 +457,9 @@ TEST(RefineTest, RejectsBadOptionsAndForeignSources) {
   options = default_refine_options(Quality::balanced);
   options.weights.pose = std::nan("");
   rejects(options);
+  options = default_refine_options(Quality::balanced);
+  options.contact_lift = -0.01;
+  rejects(options);
 
   RetargetResult result = shared().fast.at("RiggedFigure.glb");
   Clip shorter = shared().source;
@@ -416,7 +478,7 @@ TEST(RefineModelTest, ReferencePoseAssemblesTheTransferredClip) {
     const Clip& reference = fast.transfer.clip;
     const refinement::RefineModel model = refinement::build_refine_model(fast);
     refinement::FrameBuilder builder(model, reference, shared().source, fast.source_feet);
-    refinement::MotionPlan plan = refinement::plan_motion(model, builder, fast.contacts, 12, true);
+    refinement::MotionPlan plan = refinement::plan_motion(model, builder, fast.source_feet, fast.contacts, 12, true, std::nullopt);
     for (auto& foot : plan.feet) foot.flat.clear();
     Clip out = reference;
     refinement::FramePose pose;
@@ -448,7 +510,7 @@ TEST(RefineModelTest, LimbJacobiansMatchFiniteDifferencesOfTheWholePose) {
     const RetargetResult& fast = shared().fast.at(character);
     const refinement::RefineModel model = refinement::build_refine_model(fast);
     refinement::FrameBuilder builder(model, fast.transfer.clip, shared().source, fast.source_feet);
-    const refinement::MotionPlan plan = refinement::plan_motion(model, builder, fast.contacts, 12, true);
+    const refinement::MotionPlan plan = refinement::plan_motion(model, builder, fast.source_feet, fast.contacts, 12, true, std::nullopt);
     builder.load(150);
     refinement::FramePose pose;
     builder.reference_pose(pose);

@@ -278,6 +278,26 @@ TEST(RetargetCliTest, WeightsOverrideTheDefaultsAndBadOnesAreUsageErrors) {
   }
 }
 
+TEST(RetargetCliTest, ContactLiftIsAnOptionInMetres) {
+  const fs::path out = scratch("lift.glb"), report_path = scratch("lift.json");
+  const std::string base = "retarget --motion " + kWalkBvh + " --bvh-units cmu --character " +
+                           character_path("RiggedFigure.glb") + " --quality balanced --out " + out.string() +
+                           " --report " + report_path.string();
+  ASSERT_EQ(run(base).exit_code, 0);
+  EXPECT_TRUE(nlohmann::json::parse(read_text(report_path))["settings"]["refine"]["contact_lift_m"].is_null());
+  const Result result = run(base + " --contact-lift 0.03");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_EQ(nlohmann::json::parse(read_text(report_path))["settings"]["refine"]["contact_lift_m"], 0.03);
+  fs::remove(out);
+  fs::remove(report_path);
+  for (const char* bad : {" --contact-lift -0.01", " --contact-lift x", " --contact-lift inf"}) {
+    const Result rejected = run(base + bad);
+    EXPECT_EQ(rejected.exit_code, 2) << bad << "\n" << rejected.output;
+    EXPECT_TRUE(contains(rejected.output, "--contact-lift")) << rejected.output;
+    EXPECT_FALSE(fs::exists(out)) << bad;
+  }
+}
+
 TEST(RetargetCliTest, AnEgoCameraGoesIntoTheGlbAndItsPathFile) {
   const fs::path out = scratch("ego.glb"), camera = scratch("ego_camera.json");
   const Result result = run("retarget --motion " + kWalkBvh + " --bvh-units cmu --character " +

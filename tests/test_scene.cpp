@@ -64,6 +64,8 @@ TEST(SceneFileTest, ErrorsNameTheFileAndTheJsonPath) {
                        "outputs.trajectories: trajectories need a camera"));
   EXPECT_TRUE(contains(parse_error(R"({"version": 1, "actors": [{"motion": 3, "character": "c.glb"}]})"),
                        "actors[0].motion: not a string"));
+  EXPECT_TRUE(contains(parse_error(R"({"version": 1, "actors": [{"motion": "a.bvh", "character": "c.glb", "contact_lift": -1}]})"),
+                       "actors[0].contact_lift:"));
   EXPECT_TRUE(contains(parse_error(std::string(200, '[') + std::string(200, ']')), "nested deeper than 64 levels"));
   EXPECT_TRUE(contains(parse_error("{\"version\": 1,"), "shot.json: not valid JSON"));
   // Found by fuzz_scene: a number beyond double's range is nlohmann's out_of_range, not a parse error.
@@ -73,13 +75,14 @@ TEST(SceneFileTest, ErrorsNameTheFileAndTheJsonPath) {
 TEST(SceneFileTest, PathsResolveAgainstTheFileOrTheBundledData) {
   const scene::SceneFile file = scene::parse_scene(
       R"({"version": 1, "actors": [{"motion": "data:mocap/cmu_walk_cgspeed.bvh", "character": "chars/c.glb",
-          "placement": {"x": 1, "y": 2, "yaw": 30}, "trim": [0.5, 2], "speed": 2, "start": [1, 3]}],
+          "placement": {"x": 1, "y": 2, "yaw": 30}, "trim": [0.5, 2], "speed": 2, "start": [1, 3], "contact_lift": 0.03}],
           "props": [{"type": "mesh", "path": "/abs/table.obj", "up": "z"}]})",
       "/some/where/shot.json");
   const scene::SceneActor& actor = file.scene.actors[0];
   EXPECT_EQ(fs::path(actor.retarget.motion_path), fs::path(scene::bundled_data_folder()) / "mocap/cmu_walk_cgspeed.bvh");
   EXPECT_EQ(actor.retarget.character_path, "/some/where/chars/c.glb");
   EXPECT_EQ(actor.retarget.quality, retarget::Quality::balanced);
+  EXPECT_EQ(actor.retarget.refine_options.contact_lift, 0.03);
   EXPECT_EQ(actor.placement.kind, scene::Placement::Kind::fixed);
   EXPECT_DOUBLE_EQ(actor.placement.yaw_deg, 30);
   EXPECT_DOUBLE_EQ(actor.trim_start_s, 0.5);
