@@ -115,6 +115,15 @@ ContactError contact_error(const RetargetResult& result) {
   return error;
 }
 
+// The worse leg's mean bone direction error, degrees.
+double worst_leg_deg(const RetargetResult& result) {
+  double worst = 0;
+  for (const auto& limb : result.report.result_metrics.limbs) {
+    if (limb.name == "left_leg" || limb.name == "right_leg") worst = std::max(worst, limb.error.mean_deg);
+  }
+  return worst;
+}
+
 void print_metrics(const std::string& label, const RetargetMetrics& metrics) {
   std::printf("%-30s bone direction mean %.2f max %.1f deg |", label.c_str(), metrics.bone_direction.mean_deg,
               metrics.bone_direction.max_deg);
@@ -282,13 +291,6 @@ TEST(RefineTest, PelvisTurnsRatherThanALegBends) {
     RefineOptions still = default_refine_options(Quality::balanced);
     still.weights.pelvis_turn = 1e4;
     const RetargetResult held = refined(character, still);
-    const auto legs = [](const RetargetResult& result) {
-      double worst = 0;
-      for (const auto& limb : result.report.result_metrics.limbs) {
-        if (limb.name == "left_leg" || limb.name == "right_leg") worst = std::max(worst, limb.error.mean_deg);
-      }
-      return worst;
-    };
     const int pelvis = turned.rig.target_joint(canonical::pelvis);
     std::vector<RigidTransform<double>> a(turned.rig.target.joint_count()), b(a.size());
     double largest_turn = 0;
@@ -297,9 +299,9 @@ TEST(RefineTest, PelvisTurnsRatherThanALegBends) {
       shared().fast.at(character).transfer.clip.world_pose(f, b);
       largest_turn = std::max(largest_turn, Eigen::AngleAxisd(a[pelvis].rotation.transpose() * b[pelvis].rotation).angle());
     }
-    std::printf("%s: worst leg %.2f deg with the turn (at most %.1f deg), %.2f held still\n", character.c_str(), legs(turned),
-                largest_turn * 180 / M_PI, legs(held));
-    EXPECT_LT(legs(turned), legs(held)) << character;
+    std::printf("%s: worst leg %.2f deg with the turn (at most %.1f deg), %.2f held still\n", character.c_str(), worst_leg_deg(turned),
+                largest_turn * 180 / M_PI, worst_leg_deg(held));
+    EXPECT_LT(worst_leg_deg(turned), worst_leg_deg(held)) << character;
     EXPECT_LT(largest_turn, 8 * M_PI / 180) << character;
   }
 }
@@ -318,13 +320,6 @@ TEST(RefineTest, ContactLiftLetsTheHeelRiseWithThePerformers) {
   RefineOptions options = default_refine_options(Quality::balanced);
   options.contact_lift = 0.03;
   const RetargetResult lifted = refined(character, options);
-  const auto legs = [](const RetargetResult& result) {
-    double worst = 0;
-    for (const auto& limb : result.report.result_metrics.limbs) {
-      if (limb.name == "left_leg" || limb.name == "right_leg") worst = std::max(worst, limb.error.mean_deg);
-    }
-    return worst;
-  };
   // How far above the floor the plan allows a planted foot: s (c - d + 1 cm), at least 0.
   const Clip& source = shared().source;
   const Feet& source_feet = lifted.source_feet;
@@ -350,12 +345,12 @@ TEST(RefineTest, ContactLiftLetsTheHeelRiseWithThePerformers) {
   }
   std::printf("worst leg %.2f deg lifted, %.2f held (fast 0); planted feet up to %.1f mm off the floor, at most %.1f mm above "
               "what the lift allows; penetration + floating %.2f cm (held %.2f, fast %.2f)\n",
-              legs(lifted), legs(held), 1000 * highest, 1000 * worst_excess,
+              worst_leg_deg(lifted), worst_leg_deg(held), 1000 * highest, 1000 * worst_excess,
               lifted.report.result_metrics.penetration_cm + lifted.report.result_metrics.floating_cm,
               held.report.result_metrics.penetration_cm + held.report.result_metrics.floating_cm,
               shared().fast.at(character).report.result_metrics.penetration_cm +
                   shared().fast.at(character).report.result_metrics.floating_cm);
-  EXPECT_LT(legs(lifted), legs(held) - 0.1);
+  EXPECT_LT(worst_leg_deg(lifted), worst_leg_deg(held) - 0.1);
   EXPECT_LT(worst_excess, 0.01);
   const RetargetMetrics& metrics = lifted.report.result_metrics;
   const RetargetMetrics& fast = shared().fast.at(character).report.result_metrics;
