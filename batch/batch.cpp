@@ -199,11 +199,6 @@ std::vector<std::string> gate_flags(const nlohmann::json& metrics, const Gates& 
 }
 
 nlohmann::ordered_json request_settings_json(const scene::RetargetRequest& request, const JobOutputs& outputs) {
-  nlohmann::ordered_json weights;
-  for (const retarget::RefineWeightName& entry : retarget::refine_weight_names()) {
-    weights[entry.name] = request.refine_options.weights.*(entry.weight);
-  }
-  const retarget::RefineOptions& refine = request.refine_options;
   return {{"quality", retarget::quality_name(request.quality)},
           {"parts", retarget::parts_name(request.parts)},
           {"fps", request.fps},
@@ -214,18 +209,7 @@ nlohmann::ordered_json request_settings_json(const scene::RetargetRequest& reque
           {"map", request.map_path.value_or("")},
           {"source_map", request.source_map_path.value_or("")},
           {"model", request.model_path.value_or("")},
-          {"refine", {{"weights", weights},
-                      {"contact_blend_seconds", refine.contact_blend_seconds},
-                      {"contact_lift_m", refine.contact_lift ? nlohmann::ordered_json(*refine.contact_lift) : nlohmann::ordered_json()},
-                      {"window_frames", refine.window_frames},
-                      {"span_frames", refine.span_frames},
-                      {"span_lookahead", refine.span_lookahead},
-                      {"max_iterations", refine.max_iterations},
-                      {"span_iterations", refine.span_iterations},
-                      {"smoothness_limit", refine.smoothness_limit},
-                      {"pelvis_smoothness_limit", refine.pelvis_smoothness_limit},
-                      {"warm_start", refine.warm_start},
-                      {"fit_stride", refine.fit_stride}}},
+          {"refine", scene::refine_settings_json(request.refine_options)},
           {"outputs", job_outputs_text(outputs)}};
 }
 

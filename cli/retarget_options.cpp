@@ -180,6 +180,13 @@ scene::RetargetRequest retarget_settings_from(const Args& args, const std::strin
   const long long threads = args.get_int("threads");
   if (threads < 1 || threads > 1024) throw UsageError("--threads expects 1 to 1024, got " + std::to_string(threads));
   request.refine_options.threads = static_cast<int>(threads);
+  // Fast runs no refinement: its settings would be taken and silently do nothing.
+  for (const char* refinement : {"weights", "contact-lift"}) {
+    if (*quality == retarget::Quality::fast && args.has(refinement)) {
+      throw UsageError(std::string("--") + refinement + " sets the refinement, which --quality fast does not run "
+                       "(use balanced or accurate)");
+    }
+  }
   if (const auto weights = args.get_optional("weights")) apply_weights(*weights, request.refine_options.weights);
   if (args.has("contact-lift")) {
     const double lift = args.get_double("contact-lift");

@@ -173,11 +173,11 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
       bone.error.add(angle_deg(source_direction, target_direction));
     }
     if (hips) {
-      const Eigen::Vector3d source_line =
-          source_pose.position[rig.source_joint(canonical::left_hip)] - source_pose.position[rig.source_joint(canonical::right_hip)];
-      const Eigen::Vector3d target_line =
-          target_pose.position[rig.target_joint(canonical::left_hip)] - target_pose.position[rig.target_joint(canonical::right_hip)];
-      hip_line.add(angle_deg(source_line, target_line));
+      const auto line = [](const FramePose& pose, int left, int right) -> Eigen::Vector3d {
+        return pose.position[left] - pose.position[right];
+      };
+      hip_line.add(angle_deg(line(source_pose, rig.source_joint(canonical::left_hip), rig.source_joint(canonical::right_hip)),
+                             line(target_pose, rig.target_joint(canonical::left_hip), rig.target_joint(canonical::right_hip))));
     }
     for (int c : effectors) {
       const Eigen::Vector3d target_relative = target_pose.position[rig.target_joint(c)] - target_pose.position[target_pelvis];

@@ -319,16 +319,21 @@ int support_point(const Foot& foot, const FootPaths& points, int f) {
   return lowest;
 }
 
-// The reference's pelvis and both feet's points, frame by frame.
+// The reference's pelvis and both feet's points, frame by frame, and the source's foot joints'
+// clearances (above their ground heights, at the performer's size): clearance[side][joint][frame].
 struct ReferencePaths {
   std::vector<Eigen::Vector3d> pelvis;
   std::array<FootPaths, 2> feet;
+  std::array<std::vector<std::vector<double>>, 2> source_clearance;
 };
 
-ReferencePaths reference_paths(const RefineModel& model, FrameBuilder& builder, int frames) {
+ReferencePaths reference_paths(const RefineModel& model, FrameBuilder& builder, const Feet& source_feet, int frames) {
   ReferencePaths paths;
   paths.pelvis.resize(frames);
-  for (int side = 0; side < 2; ++side) paths.feet[side].assign(model.feet[side].point_count(), std::vector<Eigen::Vector3d>(frames));
+  for (int side = 0; side < 2; ++side) {
+    paths.feet[side].assign(model.feet[side].point_count(), std::vector<Eigen::Vector3d>(frames));
+    paths.source_clearance[side].assign(source_feet[side].joints.size(), std::vector<double>(frames));
+  }
   for (int f = 0; f < frames; ++f) {
     builder.load(f);
     paths.pelvis[f] = builder.reference_position(model.pelvis);
@@ -337,6 +342,10 @@ ReferencePaths reference_paths(const RefineModel& model, FrameBuilder& builder, 
       FootPaths& points = paths.feet[side];
       for (std::size_t k = 0; k < foot.joints.size(); ++k) points[k][f] = builder.reference_position(foot.joints[k]);
       if (foot.has_toe) points.back()[f] = builder.reference_position(foot.joints[0]) + builder.reference_rotation(foot.joints[0]) * foot.toe;
+      const Foot& source = source_feet[side];
+      for (std::size_t j = 0; j < source.joints.size(); ++j) {
+        paths.source_clearance[side][j][f] = builder.source_position(source.joints[j]).z() - source.ground_heights[j];
+      }
     }
   }
   return paths;
@@ -400,21 +409,21 @@ std::vector<std::pair<int, int>> contact_runs(const std::vector<std::uint8_t>& p
 }
 
 // How high each point of a target foot should stand above its ground height, frame by frame
-// (lift[k][frame]): s e(c_S - d), the lift of refine.h, for the performer's joint the point
-// corresponds to (a toe: the ball of the foot). Empty when `contact_lift` is off.
-std::vector<std::vector<double>> foot_lift(const RefineModel& model, FrameBuilder& builder, int side, const Foot& source,
-                                           std::optional<double> contact_lift, int frames) {
+// (lift[k][frame]): s e(c_S - d), the lift of refine.h, from the clearance of the performer's joint
+// the point corresponds to (`source_clearance`, ReferencePaths; a toe takes the ball of the
+// foot's). Empty when `contact_lift` is off.
+std::vector<std::vector<double>> foot_lift(const Foot& foot, const std::vector<std::vector<double>>& source_clearance,
+                                           double scale, std::optional<double> contact_lift) {
   constexpr double kEase = 0.02;  // m, the width of the ramp's eased knee
   if (!contact_lift) return {};
-  const Foot& foot = model.feet[side];
-  std::vector<std::vector<double>> lift(foot.point_count(), std::vector<double>(frames, 0.0));
-  for (int f = 0; f < frames; ++f) {
-    builder.load(f);
-    for (int k = 0; k < foot.point_count(); ++k) {
-      const std::size_t j = std::min<std::size_t>(static_cast<std::size_t>(k), source.joints.size() - 1);
-      const double x = builder.source_position(source.joints[j]).z() - source.ground_heights[j] - *contact_lift;
+  std::vector<std::vector<double>> lift(foot.point_count());
+  for (int k = 0; k < foot.point_count(); ++k) {
+    const std::vector<double>& clearance = source_clearance[std::min<std::size_t>(k, source_clearance.size() - 1)];
+    lift[k].reserve(clearance.size());
+    for (const double c : clearance) {
+      const double x = c - *contact_lift;
       const double eased = x <= -kEase / 2 ? 0.0 : x >= kEase / 2 ? x : (x + kEase / 2) * (x + kEase / 2) / (2 * kEase);
-      lift[k][f] = model.scale * eased;
+      lift[k].push_back(scale * eased);
     }
   }
   return lift;
@@ -536,7 +545,7 @@ RefineModel build_refine_model(const RetargetResult& result) {
 MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const Feet& source_feet, const FootContacts& contacts,
                        int blend_frames, bool fit_stride_factor, std::optional<double> contact_lift) {
   const int frames = contacts.frame_count();
-  ReferencePaths paths = reference_paths(model, builder, frames);
+  ReferencePaths paths = reference_paths(model, builder, source_feet, frames);
   MotionPlan plan;
   if (fit_stride_factor) plan.stride = fit_stride(model, paths, contacts, builder.fps());
   plan.height = planted_height(model, paths, contacts);
@@ -559,7 +568,7 @@ MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const Fe
     feet.follow.assign(frames, 1.0);
     if (foot.joints.size() == 1 && !foot.has_toe) feet.flat.assign(frames, 0.0);
     const std::vector<std::pair<int, int>> runs = contact_runs(contacts.planted[side]);
-    const std::vector<std::vector<double>> lift = foot_lift(model, builder, side, source_feet[side], contact_lift, frames);
+    const std::vector<std::vector<double>> lift = foot_lift(foot, paths.source_clearance[side], model.scale, contact_lift);
     const std::vector<Eigen::Vector3d> correction = hold_contacts(foot, at, runs, plan.pelvis_offset, lift, blend_frames, feet);
     fade_around_contacts(runs, correction, plan.pelvis_offset, blend_frames, feet);
   }

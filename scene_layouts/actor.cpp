@@ -214,6 +214,25 @@ RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCal
   return actor;
 }
 
+nlohmann::ordered_json refine_settings_json(const retarget::RefineOptions& options) {
+  nlohmann::ordered_json weights;
+  for (const retarget::RefineWeightName& entry : retarget::refine_weight_names()) {
+    weights[entry.name] = options.weights.*(entry.weight);
+  }
+  return {{"weights", weights},
+          {"contact_blend_seconds", options.contact_blend_seconds},
+          {"contact_lift_m", options.contact_lift ? nlohmann::ordered_json(*options.contact_lift) : nlohmann::ordered_json()},
+          {"window_frames", options.window_frames},
+          {"span_frames", options.span_frames},
+          {"span_lookahead", options.span_lookahead},
+          {"max_iterations", options.max_iterations},
+          {"span_iterations", options.span_iterations},
+          {"smoothness_limit", options.smoothness_limit},
+          {"pelvis_smoothness_limit", options.pelvis_smoothness_limit},
+          {"warm_start", options.warm_start},
+          {"fit_stride", options.fit_stride}};
+}
+
 nlohmann::ordered_json actor_report_json(const RetargetedActor& actor) {
   const RetargetRequest& request = actor.request;
   nlohmann::ordered_json json = retarget::report_json(actor.result.report);
@@ -249,25 +268,8 @@ nlohmann::ordered_json actor_report_json(const RetargetedActor& actor) {
   json["settings"]["source_map_file"] =
       request.source_map_path ? nlohmann::ordered_json(*request.source_map_path) : nlohmann::ordered_json();
   if (actor.refined) {
-    const retarget::RefineOptions& options = request.refine_options;
-    nlohmann::ordered_json weights;
-    for (const retarget::RefineWeightName& entry : retarget::refine_weight_names()) {
-      weights[entry.name] = options.weights.*(entry.weight);
-    }
-    json["settings"]["refine"] = {{"weights", weights},
-                                  {"contact_blend_seconds", options.contact_blend_seconds},
-                                  {"contact_lift_m", options.contact_lift ? nlohmann::ordered_json(*options.contact_lift)
-                                                                          : nlohmann::ordered_json()},
-                                  {"window_frames", options.window_frames},
-                                  {"span_frames", options.span_frames},
-                                  {"span_lookahead", options.span_lookahead},
-                                  {"max_iterations", options.max_iterations},
-                                  {"span_iterations", options.span_iterations},
-                                  {"smoothness_limit", options.smoothness_limit},
-                                  {"pelvis_smoothness_limit", options.pelvis_smoothness_limit},
-                                  {"warm_start", options.warm_start},
-                                  {"fit_stride", options.fit_stride},
-                                  {"threads", options.threads}};
+    json["settings"]["refine"] = refine_settings_json(request.refine_options);
+    json["settings"]["refine"]["threads"] = request.refine_options.threads;
     const retarget::RefineSummary& refined = *actor.refined;
     json["refine"] = {{"seconds", refined.seconds},         {"solve_seconds", refined.solve_seconds},
                       {"frames", refined.frames},           {"windows", refined.windows}, {"spans", refined.spans},

@@ -103,6 +103,11 @@ class LoadCache {
 RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCallback& progress = {},
                                LoadCache* cache = nullptr);
 
+// The refinement options that decide a result, as reports, batch journals and cache keys record
+// them: every weight, the contact blend and lift, the window and span sizes, the solvers' limits
+// (threads, which change the speed but not the result, are left out).
+nlohmann::ordered_json refine_settings_json(const retarget::RefineOptions& options);
+
 // The actor's report: retarget::report_json's entries, with the inputs, the settings (every
 // refinement weight), the parts left out, the refinement and the stage timings.
 nlohmann::ordered_json actor_report_json(const RetargetedActor& actor);

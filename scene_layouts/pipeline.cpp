@@ -99,22 +99,19 @@ bool any_path(const std::vector<std::string>& paths) {
 
 // Everything that changes what retarget_actor returns.
 std::string request_key(const RetargetRequest& r) {
-  nlohmann::json key = {r.motion_path,
-                        r.character_path,
-                        r.map_path.value_or(""),
-                        r.source_map_path.value_or(""),
-                        r.model_path.value_or(""),
-                        retarget::quality_name(r.quality),
-                        retarget::parts_name(r.parts),
-                        r.fps,
-                        r.bvh_metres_per_unit.value_or(-1),
-                        static_cast<int>(r.options.source_rest),
-                        betas_policy_name(r.betas)};
-  const retarget::RefineOptions& o = r.refine_options;
-  for (const retarget::RefineWeightName& entry : retarget::refine_weight_names()) key.push_back(o.weights.*(entry.weight));
-  key.insert(key.end(), {o.contact_blend_seconds, o.contact_lift.value_or(-1), double(o.window_frames), double(o.span_frames), double(o.span_lookahead),
-                         double(o.max_iterations), double(o.span_iterations), o.smoothness_limit, o.pelvis_smoothness_limit, double(o.warm_start),
-                         double(o.fit_stride), double(o.threads)});
+  nlohmann::ordered_json key = {r.motion_path,
+                                r.character_path,
+                                r.map_path.value_or(""),
+                                r.source_map_path.value_or(""),
+                                r.model_path.value_or(""),
+                                retarget::quality_name(r.quality),
+                                retarget::parts_name(r.parts),
+                                r.fps,
+                                r.bvh_metres_per_unit.value_or(-1),
+                                static_cast<int>(r.options.source_rest),
+                                betas_policy_name(r.betas)};
+  key.push_back(refine_settings_json(r.refine_options));
+  key.push_back(r.refine_options.threads);
   return key.dump();
 }
 
@@ -613,7 +610,8 @@ Footprint place_actor(const Scene& scene, std::size_t a, int frames, const std::
   if (const int other = first_overlap(footprint, placed, frame); other >= 0) {
     throw std::invalid_argument("actors '" + scene.actors[other].name + "' and '" + spec.name + "' overlap at frame " +
                                 std::to_string(frame) + ": their roots come within " +
-                                std::to_string(placed[other].radius + footprint.radius) + " m; place them apart or shift them in time");
+                                std::to_string(placed[other].radius + footprint.radius) +
+                                " m; place them apart or shift them in time");
   }
   return footprint;
 }

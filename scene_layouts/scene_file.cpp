@@ -131,6 +131,12 @@ void read_retarget_request(const JsonValue& item, SceneActor& actor, const fs::p
     }
   }
   if (const auto value = item.find("contact_lift")) r.refine_options.contact_lift = value->number_in(0, 1e3);
+  // Fast runs no refinement: its settings would be taken and silently do nothing.
+  for (const char* key : {"weights", "contact_lift"}) {
+    if (const auto value = item.find(key); value && quality == retarget::Quality::fast) {
+      value->fail("a refinement setting, which quality fast does not run (use balanced or accurate)");
+    }
+  }
   if (const auto value = item.find("source_rest")) {
     const std::string text = value->string();
     if (text == "rest") {
@@ -194,8 +200,8 @@ void read_placement_and_timing(const JsonValue& item, SceneActor& actor) {
 
 SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& base) {
   item.allow_only({"name", "motion", "character", "model", "betas", "bvh_units", "quality", "parts", "fps", "weights",
-                   "contact_lift", "map", "source_map", "source_rest", "placement", "start", "trim", "speed", "points", "sampling", "animation",
-                   "anime", "loops", "seconds", "scale", "source_fps", "up"});
+                   "contact_lift", "map", "source_map", "source_rest", "placement", "start", "trim", "speed", "points",
+                   "sampling", "animation", "anime", "loops", "seconds", "scale", "source_fps", "up"});
   SceneActor actor;
   actor.name = name_of(item, "actor" + std::to_string(index));
   if (!read_played_source(item, actor, base)) read_retarget_request(item, actor, base);

@@ -473,7 +473,8 @@ TEST(RefineModelTest, ReferencePoseAssemblesTheTransferredClip) {
     const Clip& reference = fast.transfer.clip;
     const refinement::RefineModel model = refinement::build_refine_model(fast);
     refinement::FrameBuilder builder(model, reference, shared().source, fast.source_feet);
-    refinement::MotionPlan plan = refinement::plan_motion(model, builder, fast.source_feet, fast.contacts, 12, true, std::nullopt);
+    refinement::MotionPlan plan = refinement::plan_motion(model, builder, fast.source_feet, fast.contacts, 12, true,
+                                                                           std::nullopt);
     for (auto& foot : plan.feet) foot.flat.clear();
     Clip out = reference;
     refinement::FramePose pose;
@@ -505,7 +506,8 @@ TEST(RefineModelTest, LimbJacobiansMatchFiniteDifferencesOfTheWholePose) {
     const RetargetResult& fast = shared().fast.at(character);
     const refinement::RefineModel model = refinement::build_refine_model(fast);
     refinement::FrameBuilder builder(model, fast.transfer.clip, shared().source, fast.source_feet);
-    const refinement::MotionPlan plan = refinement::plan_motion(model, builder, fast.source_feet, fast.contacts, 12, true, std::nullopt);
+    const refinement::MotionPlan plan = refinement::plan_motion(model, builder, fast.source_feet, fast.contacts, 12, true,
+                                                                           std::nullopt);
     builder.load(150);
     refinement::FramePose pose;
     builder.reference_pose(pose);

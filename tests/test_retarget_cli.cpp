@@ -290,7 +290,7 @@ TEST(RetargetCliTest, ContactLiftIsAnOptionInMetres) {
   EXPECT_EQ(nlohmann::json::parse(read_text(report_path))["settings"]["refine"]["contact_lift_m"], 0.03);
   fs::remove(out);
   fs::remove(report_path);
-  for (const char* bad : {" --contact-lift -0.01", " --contact-lift x", " --contact-lift inf"}) {
+  for (const char* bad : {" --contact-lift -0.01", " --contact-lift x", " --contact-lift inf", " --contact-lift 0.03 --quality fast"}) {
     const Result rejected = run(base + bad);
     EXPECT_EQ(rejected.exit_code, 2) << bad << "\n" << rejected.output;
     EXPECT_TRUE(contains(rejected.output, "--contact-lift")) << rejected.output;

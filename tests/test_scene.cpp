@@ -66,6 +66,9 @@ TEST(SceneFileTest, ErrorsNameTheFileAndTheJsonPath) {
                        "actors[0].motion: not a string"));
   EXPECT_TRUE(contains(parse_error(R"({"version": 1, "actors": [{"motion": "a.bvh", "character": "c.glb", "contact_lift": -1}]})"),
                        "actors[0].contact_lift:"));
+  EXPECT_TRUE(contains(parse_error(R"({"version": 1, "actors": [{"motion": "a.bvh", "character": "c.glb", "quality": "fast",
+                                      "weights": {"pose": 1}}]})"),
+                       "actors[0].weights: a refinement setting, which quality fast does not run"));
   EXPECT_TRUE(contains(parse_error(std::string(200, '[') + std::string(200, ']')), "nested deeper than 64 levels"));
   EXPECT_TRUE(contains(parse_error("{\"version\": 1,"), "shot.json: not valid JSON"));
   // Found by fuzz_scene: a number beyond double's range is nlohmann's out_of_range, not a parse error.
