@@ -257,6 +257,17 @@ TEST(RetargetCliTest, BalancedQualityRefines) {
   expect_zero_validator_errors(out);
 }
 
+// Each of `bad` appended to `base` is a usage error (exit 2) naming `option`, and writes no `out`.
+void expect_usage_errors(const std::string& base, std::initializer_list<const char*> bad, const std::string& option,
+                         const fs::path& out) {
+  for (const char* arguments : bad) {
+    const Result rejected = run(base + arguments);
+    EXPECT_EQ(rejected.exit_code, 2) << arguments << "\n" << rejected.output;
+    EXPECT_TRUE(contains(rejected.output, option)) << rejected.output;
+    EXPECT_FALSE(fs::exists(out)) << arguments;
+  }
+}
+
 TEST(RetargetCliTest, WeightsOverrideTheDefaultsAndBadOnesAreUsageErrors) {
   const fs::path out = scratch("weights.glb"), report_path = scratch("weights.json");
   const std::string base = "retarget --motion " + kWalkBvh + " --bvh-units cmu --character " +
@@ -270,12 +281,9 @@ TEST(RetargetCliTest, WeightsOverrideTheDefaultsAndBadOnesAreUsageErrors) {
   EXPECT_EQ(report["settings"]["refine"]["weights"]["floor"], 30.0);
   fs::remove(out);
   fs::remove(report_path);
-  for (const char* bad : {" --weights stiffness=1", " --weights pose=-1", " --weights pose", " --weights pose=1x"}) {
-    const Result rejected = run(base + bad);
-    EXPECT_EQ(rejected.exit_code, 2) << bad << "\n" << rejected.output;
-    EXPECT_TRUE(contains(rejected.output, "--weights")) << rejected.output;
-    EXPECT_FALSE(fs::exists(out)) << bad;
-  }
+  expect_usage_errors(base, {" --weights stiffness=1", " --weights pose=-1", " --weights pose", " --weights pose=1x",
+                             " --weights pose=1 --quality fast"},
+                      "--weights", out);
 }
 
 TEST(RetargetCliTest, ContactLiftIsAnOptionInMetres) {
@@ -290,12 +298,8 @@ TEST(RetargetCliTest, ContactLiftIsAnOptionInMetres) {
   EXPECT_EQ(nlohmann::json::parse(read_text(report_path))["settings"]["refine"]["contact_lift_m"], 0.03);
   fs::remove(out);
   fs::remove(report_path);
-  for (const char* bad : {" --contact-lift -0.01", " --contact-lift x", " --contact-lift inf", " --contact-lift 0.03 --quality fast"}) {
-    const Result rejected = run(base + bad);
-    EXPECT_EQ(rejected.exit_code, 2) << bad << "\n" << rejected.output;
-    EXPECT_TRUE(contains(rejected.output, "--contact-lift")) << rejected.output;
-    EXPECT_FALSE(fs::exists(out)) << bad;
-  }
+  expect_usage_errors(base, {" --contact-lift -0.01", " --contact-lift x", " --contact-lift inf", " --contact-lift 0.03 --quality fast"},
+                      "--contact-lift", out);
 }
 
 TEST(RetargetCliTest, AnEgoCameraGoesIntoTheGlbAndItsPathFile) {
