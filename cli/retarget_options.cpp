@@ -152,10 +152,10 @@ void add_retarget_settings(Args& args) {
               "refinement weights over the quality's defaults, NAME=VALUE separated by commas; names: "
               "bone_direction, end_effector, foot_contact, floor, pose, pelvis, pelvis_turn, smoothness, pelvis_smoothness "
               "(defaults and units: README, retargeting conventions)")
-      .option("contact-lift", "M",
+      .option("contact-lift", "M|off",
               "let a planted foot joint rise with the performer's once the performer's is more than M metres above "
               "its ground (at the performer's size; the legs bend less at toe-off, the foot leaves the floor earlier; "
-              "README, retargeting conventions) (default: held on the floor through the contact)");
+              "README, retargeting conventions); off holds it on the floor through the contact (default: 0.03)");
   add_bvh_units_option(args);
   add_betas_option(args);
 }
@@ -189,9 +189,13 @@ scene::RetargetRequest retarget_settings_from(const Args& args, const std::strin
   }
   if (const auto weights = args.get_optional("weights")) apply_weights(*weights, request.refine_options.weights);
   if (args.has("contact-lift")) {
-    const double lift = args.get_double("contact-lift");
-    if (!(lift >= 0) || !std::isfinite(lift)) throw UsageError("--contact-lift expects metres >= 0");
-    request.refine_options.contact_lift = lift;
+    if (args.get("contact-lift") == "off") {
+      request.refine_options.contact_lift.reset();
+    } else {
+      const double lift = args.get_double("contact-lift");
+      if (!(lift >= 0) || !std::isfinite(lift)) throw UsageError("--contact-lift expects metres >= 0 or off");
+      request.refine_options.contact_lift = lift;
+    }
   }
   const std::string source_rest = args.get("source-rest");
   if (source_rest == "rest") {

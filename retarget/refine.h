@@ -89,7 +89,7 @@
 //   performer's ball does: transfer.h), moving the joint by the toe's correction holds the toe.
 //   A foot of one joint without a toe (no mesh to find it on) is held flat while planted (its
 //   rest rotation turned about z as the reference turns).
-// - Lift (`contact_lift` d, off by default). A performer's foot is planted while its lowest point
+// - Lift (`contact_lift` d, 3 cm by default). A performer's foot is planted while its lowest point
 //   is within 5 cm of the floor (contacts.h), and at toe-off the heel rises well before that ends
 //   (8 cm on the synthetic SMPL-X walk). Held on the floor through it, the target's heel bends
 //   both legs. With d set, the support joint k is wanted at g_k + s e(c_S(t) - d) instead of g_k:
@@ -161,10 +161,10 @@ struct RefineOptions {
   Quality quality = Quality::balanced;
   RefineWeights weights;
   double contact_blend_seconds = 0.1;     // fade of a foot correction into and out of a contact
-  // Off (the default): a planted foot's support joint is held on the floor through the contact.
-  // Set (m, at the performer's size): it rises with the performer's corresponding joint once that
-  // is more than this above its ground height (the foot plan below).
-  std::optional<double> contact_lift;
+  // m, at the performer's size: a planted foot's support joint rises with the performer's
+  // corresponding joint once that is more than this above its ground height (the foot plan above).
+  // Off (nullopt): the support joint is held on the floor through the whole contact.
+  std::optional<double> contact_lift = 0.03;
   int window_frames = 64;                 // balanced: frames of one warm-start run
   int span_frames = 1024;                 // accurate: frames one space-time problem keeps
   int span_lookahead = 32;                // accurate: frames after a span it solves too

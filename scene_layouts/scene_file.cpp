@@ -130,7 +130,14 @@ void read_retarget_request(const JsonValue& item, SceneActor& actor, const fs::p
       *target = entry.number_in(0, 1e12);
     }
   }
-  if (const auto value = item.find("contact_lift")) r.refine_options.contact_lift = value->number_in(0, 1e3);
+  if (const auto value = item.find("contact_lift")) {
+    if (value->is_string()) {
+      if (value->string() != "off") value->fail("expected metres (>= 0) or \"off\"");
+      r.refine_options.contact_lift.reset();
+    } else {
+      r.refine_options.contact_lift = value->number_in(0, 1e3);
+    }
+  }
   // Fast runs no refinement: its settings would be taken and silently do nothing.
   for (const char* key : {"weights", "contact_lift"}) {
     if (const auto value = item.find(key); value && quality == retarget::Quality::fast) {

@@ -83,15 +83,32 @@ std::vector<std::vector<Vector3d>> world_positions(const Clip& clip) {
   return positions;
 }
 
-// Over the (foot, frame) where the source foot is planted: the largest distance of the foot's
-// lowest point (its joints, and a one-joint foot's toe: contacts.h) from the floor, and the
-// largest horizontal step, to the next frame when the foot is planted in both, of the point that
-// is lowest in the first.
+// How far above the floor the lift's plan (refine.h, contact_lift d) lets a planted foot be at
+// frame f: s (c - d + 1 cm), c the performer's highest foot joint above its ground height (the
+// ease reaches 1 cm below d), at least 0; 0 with the lift off.
+double lift_allowance(const RetargetResult& result, int side, int f, std::optional<double> lift) {
+  if (!lift) return 0;
+  const Clip& source = shared().source;
+  const Foot& foot = result.source_feet[side];
+  std::vector<RigidTransform<double>> world(source.joint_count());
+  source.world_pose(f, world);
+  double allowed = 0;
+  for (std::size_t k = 0; k < foot.joints.size(); ++k) {
+    const Vector3d p = result.source_feet.levelling * world[foot.joints[k]].translation;
+    allowed = std::max(allowed, result.rig.scale * (p.z() - foot.ground_heights[k] - *lift + 0.01));
+  }
+  return allowed;
+}
+
+// Over the (foot, frame) where the source foot is planted, the foot's lowest point (its joints,
+// and a one-joint foot's toe: contacts.h): the largest distance below the floor or above what
+// the lift allows (`height`), the highest it rises (`raised`), and the largest horizontal step,
+// to the next frame when the foot is planted in both, of the point that is lowest in the first.
 struct ContactError {
-  double height = 0, slide = 0;
+  double height = 0, raised = 0, slide = 0;
 };
 
-ContactError contact_error(const RetargetResult& result) {
+ContactError contact_error(const RetargetResult& result, std::optional<double> lift) {
   const auto positions = world_positions(result.transfer.clip);
   const Clip& clip = result.transfer.clip;
   std::vector<RigidTransform<double>> world(clip.joint_count()), next(clip.joint_count());
@@ -103,7 +120,9 @@ ContactError contact_error(const RetargetResult& result) {
       if (!planted[f]) continue;
       clip.world_pose(static_cast<int>(f), world);
       const Eigen::Matrix3d& rotation = world[foot.joints[0]].rotation;
-      error.height = std::max(error.height, std::abs(foot_clearance(foot, positions[f], rotation)));
+      const double clearance = foot_clearance(foot, positions[f], rotation);
+      error.height = std::max({error.height, -clearance, clearance - lift_allowance(result, side, static_cast<int>(f), lift)});
+      error.raised = std::max(error.raised, clearance);
       if (f + 1 < positions.size() && planted[f + 1]) {
         clip.world_pose(static_cast<int>(f + 1), next);
         const int k = lowest_foot_point(foot, positions[f], rotation);
@@ -139,13 +158,18 @@ struct Case {
 
 class RefineWalkTest : public testing::TestWithParam<Case> {};
 
+// A planted foot stays on the floor, or above it no higher than the lift allows (3 cm by default:
+// at toe-off RiggedFigure's Mixamo-style foot rises 5.2 cm, as the performer's heel does; fast's
+// 4.8 cm), and does not slide.
 TEST_P(RefineWalkTest, FeetStayPlantedDuringSourceContacts) {
   const Case& c = GetParam();
   const RetargetResult& result = refined_by_default(c.character, c.quality);
-  const ContactError error = contact_error(result);
-  const ContactError before = contact_error(shared().fast.at(c.character));
-  std::printf("contact frames: lowest point within %.2f mm of the floor (fast %.1f mm), slides at most %.2f mm a frame (fast %.1f mm)\n",
-              1000 * error.height, 1000 * before.height, 1000 * error.slide, 1000 * before.slide);
+  const std::optional<double> lift = default_refine_options(c.quality).contact_lift;
+  const ContactError error = contact_error(result, lift);
+  const ContactError before = contact_error(shared().fast.at(c.character), std::nullopt);
+  std::printf("contact frames: lowest point within %.2f mm of the floor or the lift's bound, up to %.1f mm high (fast %.1f mm), "
+              "slides at most %.2f mm a frame (fast %.1f mm)\n",
+              1000 * error.height, 1000 * error.raised, 1000 * before.height, 1000 * error.slide, 1000 * before.slide);
   EXPECT_LT(error.height, 0.01);
   EXPECT_LT(error.slide, 0.01);
   const RetargetMetrics& metrics = result.report.result_metrics;
@@ -191,12 +215,19 @@ INSTANTIATE_TEST_SUITE_P(CmuWalk, RefineWalkTest,
                            return info.param.character.substr(0, info.param.character.find('.')) + "_" + quality_name(info.param.quality);
                          });
 
+// Accurate is smoother than balanced, and within the target of 1.1 times the source's
+// jitter on the humans. The robot's jitter is its forearms, which the transfer sets (fast has as
+// much), so there accurate is held to 1.1 times fast's.
 TEST(RefineTest, AccurateIsSmootherThanBalanced) {
   for (const std::string& character : kCharacters) {
-    const double balanced = refined_by_default(character, Quality::balanced).report.result_metrics.jitter;
+    const RetargetReport& report = refined_by_default(character, Quality::balanced).report;
+    const double balanced = report.result_metrics.jitter, source = report.source_metrics.jitter;
+    const double fast = shared().fast.at(character).report.result_metrics.jitter;
     const double accurate = refined_by_default(character, Quality::accurate).report.result_metrics.jitter;
-    std::printf("%s: jitter balanced %.1f, accurate %.1f m/s^2\n", character.c_str(), balanced, accurate);
-    EXPECT_LT(accurate, 0.95 * balanced) << character;
+    std::printf("%s: jitter source %.1f, fast %.1f, balanced %.1f, accurate %.1f m/s^2\n", character.c_str(), source, fast,
+                balanced, accurate);
+    EXPECT_LT(accurate, balanced) << character;
+    EXPECT_LE(accurate, 1.1 * (character == "RobotExpressive.glb" ? fast : source)) << character;
   }
 }
 
@@ -306,54 +337,35 @@ TEST(RefineTest, PelvisTurnsRatherThanALegBends) {
   }
 }
 
-// The lift (refine.h, contact_lift): a planted support joint rises with the performer's once that
-// is more than d above its ground. At toe-off on the CMU walk the performer's heel rises while
-// the ball stays; held on the floor, the heel of a Mixamo-style foot (its ball ~4 cm up when the
-// performer stands flat) bends both legs. With d = 3 cm the legs come closer to the transfer's
-// (RiggedFigure's worst leg mean 0.40 -> 0.17 deg at 120 fps), and a planted foot leaves the floor
-// by no more than the plan lets it: its lowest point stays within 1 cm of s (c - d + 1 cm), c the
-// performer's highest foot joint above its ground (the ease reaches 1 cm below d), 0.9 mm over
-// it at most; penetration + floating stays under the transfer's.
+// The lift (refine.h, contact_lift, 3 cm by default): a planted support joint rises with the
+// performer's once that is more than d above its ground. At toe-off on the CMU walk the
+// performer's heel rises while the ball stays; held on the floor (the lift off), the heel of a
+// Mixamo-style foot (its ball ~4 cm up when the performer stands flat) bends both legs. With the
+// lift the legs come closer to the transfer's (RiggedFigure's worst leg mean 0.40 -> 0.17 deg at
+// 120 fps) and the feet rise at toe-off (5.2 cm), within the plan's bound (contact_error);
+// penetration + floating stays under the transfer's, and skate does not grow.
 TEST(RefineTest, ContactLiftLetsTheHeelRiseWithThePerformers) {
   const std::string character = "RiggedFigure.glb";
-  const RetargetResult& held = refined_by_default(character, Quality::balanced);
-  RefineOptions options = default_refine_options(Quality::balanced);
-  options.contact_lift = 0.03;
-  const RetargetResult lifted = refined(character, options);
-  // How far above the floor the plan allows a planted foot: s (c - d + 1 cm), at least 0.
-  const Clip& source = shared().source;
-  const Feet& source_feet = lifted.source_feet;
-  std::vector<RigidTransform<double>> world(source.joint_count()), target(lifted.transfer.clip.joint_count());
-  double worst_excess = -1, highest = 0;
-  for (int side = 0; side < 2; ++side) {
-    const Foot& foot = lifted.target_feet[side];
-    for (int f = 0; f < source.frame_count(); ++f) {
-      if (!lifted.contacts.planted[side][f]) continue;
-      source.world_pose(f, world);
-      double allowed = 0;
-      for (std::size_t k = 0; k < source_feet[side].joints.size(); ++k) {
-        const Vector3d p = source_feet.levelling * world[source_feet[side].joints[k]].translation;
-        allowed = std::max(allowed, lifted.rig.scale * (p.z() - source_feet[side].ground_heights[k] - *options.contact_lift + 0.01));
-      }
-      lifted.transfer.clip.world_pose(f, target);
-      std::vector<Vector3d> positions;
-      for (const auto& joint : target) positions.push_back(joint.translation);
-      const double clearance = foot_clearance(foot, positions, target[foot.joints[0]].rotation);
-      worst_excess = std::max(worst_excess, clearance - allowed);
-      highest = std::max(highest, clearance);
-    }
-  }
-  std::printf("worst leg %.2f deg lifted, %.2f held (fast 0); planted feet up to %.1f mm off the floor, at most %.1f mm above "
-              "what the lift allows; penetration + floating %.2f cm (held %.2f, fast %.2f)\n",
-              worst_leg_deg(lifted), worst_leg_deg(held), 1000 * highest, 1000 * worst_excess,
-              lifted.report.result_metrics.penetration_cm + lifted.report.result_metrics.floating_cm,
-              held.report.result_metrics.penetration_cm + held.report.result_metrics.floating_cm,
-              shared().fast.at(character).report.result_metrics.penetration_cm +
-                  shared().fast.at(character).report.result_metrics.floating_cm);
-  EXPECT_LT(worst_leg_deg(lifted), worst_leg_deg(held) - 0.1);
-  EXPECT_LT(worst_excess, 0.01);
+  const RefineOptions options = default_refine_options(Quality::balanced);
+  ASSERT_EQ(options.contact_lift, 0.03);
+  const RetargetResult& lifted = refined_by_default(character, Quality::balanced);
+  RefineOptions held_options = options;
+  held_options.contact_lift.reset();
+  const RetargetResult held = refined(character, held_options);
+  const ContactError lifted_error = contact_error(lifted, options.contact_lift);
+  const ContactError held_error = contact_error(held, std::nullopt);
   const RetargetMetrics& metrics = lifted.report.result_metrics;
   const RetargetMetrics& fast = shared().fast.at(character).report.result_metrics;
+  std::printf("worst leg %.2f deg lifted, %.2f held (fast 0); planted feet up to %.1f mm off the floor lifted, %.1f mm held; "
+              "penetration + floating %.2f cm (held %.2f, fast %.2f)\n",
+              worst_leg_deg(lifted), worst_leg_deg(held), 1000 * lifted_error.raised, 1000 * held_error.raised,
+              metrics.penetration_cm + metrics.floating_cm,
+              held.report.result_metrics.penetration_cm + held.report.result_metrics.floating_cm,
+              fast.penetration_cm + fast.floating_cm);
+  EXPECT_LT(worst_leg_deg(lifted), worst_leg_deg(held) - 0.1);
+  EXPECT_GT(lifted_error.raised, 0.03);
+  EXPECT_LT(lifted_error.height, 0.01);
+  EXPECT_LT(held_error.height, 0.01);
   EXPECT_LT(metrics.penetration_cm + metrics.floating_cm, fast.penetration_cm + fast.floating_cm);
   EXPECT_LE(metrics.foot_skate_ratio, held.report.result_metrics.foot_skate_ratio);
 }
@@ -411,7 +423,7 @@ TEST(RefineTest, SameMotionAtAnySize) {
       angle = std::max(angle, reference.rotations[i].angularDistance(result.transfer.clip.rotations[i]));
     }
     EXPECT_LT(angle, 1e-5) << factor;
-    EXPECT_LT(contact_error(result).height / factor, 0.01) << factor;
+    EXPECT_LT(contact_error(result, default_refine_options(Quality::balanced).contact_lift).height / factor, 0.01) << factor;
   }
 }
 

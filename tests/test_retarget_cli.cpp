@@ -291,14 +291,19 @@ TEST(RetargetCliTest, ContactLiftIsAnOptionInMetres) {
   const std::string base = "retarget --motion " + kWalkBvh + " --bvh-units cmu --character " +
                            character_path("RiggedFigure.glb") + " --quality balanced --out " + out.string() +
                            " --report " + report_path.string();
+  const auto lift_in_report = [&] { return nlohmann::json::parse(read_text(report_path))["settings"]["refine"]["contact_lift_m"]; };
   ASSERT_EQ(run(base).exit_code, 0);
-  EXPECT_TRUE(nlohmann::json::parse(read_text(report_path))["settings"]["refine"]["contact_lift_m"].is_null());
-  const Result result = run(base + " --contact-lift 0.03");
+  EXPECT_EQ(lift_in_report(), 0.03);
+  Result result = run(base + " --contact-lift 0.05");
   ASSERT_EQ(result.exit_code, 0) << result.output;
-  EXPECT_EQ(nlohmann::json::parse(read_text(report_path))["settings"]["refine"]["contact_lift_m"], 0.03);
+  EXPECT_EQ(lift_in_report(), 0.05);
+  result = run(base + " --contact-lift off");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_TRUE(lift_in_report().is_null());
   fs::remove(out);
   fs::remove(report_path);
-  expect_usage_errors(base, {" --contact-lift -0.01", " --contact-lift x", " --contact-lift inf", " --contact-lift 0.03 --quality fast"},
+  expect_usage_errors(base, {" --contact-lift -0.01", " --contact-lift x", " --contact-lift inf", " --contact-lift of",
+                             " --contact-lift 0.03 --quality fast", " --contact-lift off --quality fast"},
                       "--contact-lift", out);
 }
 

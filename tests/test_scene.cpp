@@ -66,6 +66,8 @@ TEST(SceneFileTest, ErrorsNameTheFileAndTheJsonPath) {
                        "actors[0].motion: not a string"));
   EXPECT_TRUE(contains(parse_error(R"({"version": 1, "actors": [{"motion": "a.bvh", "character": "c.glb", "contact_lift": -1}]})"),
                        "actors[0].contact_lift:"));
+  EXPECT_TRUE(contains(parse_error(R"({"version": 1, "actors": [{"motion": "a.bvh", "character": "c.glb", "contact_lift": "no"}]})"),
+                       "actors[0].contact_lift: expected metres (>= 0) or \"off\""));
   EXPECT_TRUE(contains(parse_error(R"({"version": 1, "actors": [{"motion": "a.bvh", "character": "c.glb", "quality": "fast",
                                       "weights": {"pose": 1}}]})"),
                        "actors[0].weights: a refinement setting, which quality fast does not run"));
@@ -78,14 +80,17 @@ TEST(SceneFileTest, ErrorsNameTheFileAndTheJsonPath) {
 TEST(SceneFileTest, PathsResolveAgainstTheFileOrTheBundledData) {
   const scene::SceneFile file = scene::parse_scene(
       R"({"version": 1, "actors": [{"motion": "data:mocap/cmu_walk_cgspeed.bvh", "character": "chars/c.glb",
-          "placement": {"x": 1, "y": 2, "yaw": 30}, "trim": [0.5, 2], "speed": 2, "start": [1, 3], "contact_lift": 0.03}],
+          "placement": {"x": 1, "y": 2, "yaw": 30}, "trim": [0.5, 2], "speed": 2, "start": [1, 3], "contact_lift": 0.05},
+                     {"motion": "a.bvh", "character": "c.glb"}, {"motion": "a.bvh", "character": "c.glb", "contact_lift": "off"}],
           "props": [{"type": "mesh", "path": "/abs/table.obj", "up": "z"}]})",
       "/some/where/shot.json");
   const scene::SceneActor& actor = file.scene.actors[0];
   EXPECT_EQ(fs::path(actor.retarget.motion_path), fs::path(scene::bundled_data_folder()) / "mocap/cmu_walk_cgspeed.bvh");
   EXPECT_EQ(actor.retarget.character_path, "/some/where/chars/c.glb");
   EXPECT_EQ(actor.retarget.quality, retarget::Quality::balanced);
-  EXPECT_EQ(actor.retarget.refine_options.contact_lift, 0.03);
+  EXPECT_EQ(actor.retarget.refine_options.contact_lift, 0.05);
+  EXPECT_EQ(file.scene.actors[1].retarget.refine_options.contact_lift, 0.03);
+  EXPECT_FALSE(file.scene.actors[2].retarget.refine_options.contact_lift);
   EXPECT_EQ(actor.placement.kind, scene::Placement::Kind::fixed);
   EXPECT_DOUBLE_EQ(actor.placement.yaw_deg, 30);
   EXPECT_DOUBLE_EQ(actor.trim_start_s, 0.5);
