@@ -74,12 +74,13 @@
 // - Feet. Feet are the joints contacts.h names (ankle, ball of the foot) with the target's ground
 //   heights g_k; the floor is z = 0. During a source contact (a maximal run of planted frames)
 //   the foot's support joint k(t), its lowest joint in the reference (lowest_foot_joint, as the
-//   skate metric picks it), is held at D(t) = (anchor_x, anchor_y, g_k): on the floor, still. The
-//   anchor is the mean horizontal position of the first support joint over the frames it
-//   supports, in the reference moved by dp_plan (the mean rather than the position at contact
-//   start halves the largest correction); when the support passes to the other joint (heel
-//   strike -> flat -> toe-off) the anchor passes with it, shifted by the reference's ankle -> ball
-//   vector at that frame, so the foot rolls over the joint that holds without a jump. Around a
+//   skate metric picks it), is held at D(t) = (anchor_x, anchor_y, g_k): on the floor, still. When
+//   the support passes to the other joint (heel strike -> flat -> toe-off) the anchor passes with
+//   it, shifted by the reference's ankle -> ball vector at that frame, so the foot rolls over the
+//   joint that holds without a jump. The anchor is the mean over the whole contact of where the
+//   reference (moved by dp_plan) has the support joint, each frame's shifted back to the first
+//   joint by those switches: the least-squares anchor for the contact, not only for the heel's
+//   part of it. Around a
 //   contact the correction fades in and out over `contact_blend_seconds` (smoothstep u from 1 to
 //   0): the boundary's support joint is wanted at p_ref + u (dp_plan + o) + (1 - u) dp, passing
 //   from its anchor to moving with the body; contacts closer than two fades hand the correction

@@ -439,18 +439,22 @@ std::vector<Eigen::Vector3d> hold_contacts(const Foot& foot, const FootPaths& at
   const auto wanted_height = [&](int k, int f) { return foot.point_ground_height(k) + (lift.empty() ? 0.0 : lift[k][f]); };
   std::vector<Eigen::Vector3d> correction(pelvis_offset.size(), Eigen::Vector3d::Zero());
   for (const auto& [first, last] : runs) {
-    // The anchor: the first support point's mean horizontal position over the frames it supports;
-    // when the support passes to another point, the anchor passes with it by their offset. With a
-    // lift, so does the height: what the old point's target implies for the new one (rigid with
+    // The anchor: the mean horizontal position over the whole contact of the support point, each
+    // frame's brought back to the first point by the offsets at the switches before it (the least
+    // squares anchor for the contact); when the support passes to another point, the anchor passes
+    // with it by their offset. With a lift, so does the height: what the old point's target implies for the new one (rigid with
     // it in this frame) less the new one's own, faded out over the blend, so the foot does not
     // step down. Never below the new point's own: that would push it into the floor
     // (RobotExpressive's toe, 0.2-0.3 cm on average over its planted frames of the SMPL-X walk).
     int k = support(first);
-    int phase_end = first;
-    while (phase_end <= last && support(phase_end) == k) ++phase_end;
-    Eigen::Vector2d anchor = Eigen::Vector2d::Zero();
-    for (int f = first; f < phase_end; ++f) anchor += at[k][f].head<2>();
-    anchor /= phase_end - first;
+    Eigen::Vector2d anchor = Eigen::Vector2d::Zero(), switched = Eigen::Vector2d::Zero();
+    for (int f = first, held = k; f <= last; ++f) {
+      const int now = support(f);
+      switched += (at[now][f] - at[held][f]).head<2>();
+      held = now;
+      anchor += at[now][f].head<2>() - switched;
+    }
+    anchor /= last - first + 1;
     double carried = 0;
     int carried_since = first;
     for (int f = first; f <= last; ++f) {
