@@ -441,10 +441,10 @@ std::vector<Eigen::Vector3d> hold_contacts(const Foot& foot, const FootPaths& at
   for (const auto& [first, last] : runs) {
     // The anchor: the mean horizontal position over the whole contact of the support point, each
     // frame's brought back to the first point by the offsets at the switches before it (the least
-    // squares anchor for the contact); when the support passes to another point, the anchor passes
-    // with it by their offset. With a lift, so does the height: what the old point's target implies for the new one (rigid with
-    // it in this frame) less the new one's own, faded out over the blend, so the foot does not
-    // step down. Never below the new point's own: that would push it into the floor
+    // squares anchor for the contact); when the support passes to another point, the anchor
+    // passes with it by their offset. With a lift, so does the height: what the old point's target
+    // implies for the new one (rigid with it in this frame) less the new one's own, faded out over
+    // the blend, so the foot does not step down. Never below the new point's own: that would push it into the floor
     // (RobotExpressive's toe, 0.2-0.3 cm on average over its planted frames of the SMPL-X walk).
     int k = support(first);
     Eigen::Vector2d anchor = Eigen::Vector2d::Zero(), switched = Eigen::Vector2d::Zero();
