@@ -97,8 +97,8 @@
 //   c_S the clearance of the performer's joint that k corresponds to (ankle, ball of the foot; a
 //   toe takes the ball's), s the rig's scale, e() a ramp eased over 2 cm (0 below -1 cm, x above
 //   +1 cm, (x + 1 cm)^2 / 4 cm between). Where the support passes to another joint, the height
-//   the old target implies for the new one, where it is above the new one's own, is carried and
-//   faded out over the contact blend, so the foot does not step down. The trade (README,
+//   the old target implies for the new one, where it is above the new one's own, is carried to the
+//   end of the contact: the foot pivots on the new joint where it stands. The trade (README,
 //   "Retargeting as Blender sees it") is the legs and jitter against a foot that leaves the floor
 //   at toe-off.
 //

@@ -434,7 +434,7 @@ std::vector<std::vector<double>> foot_lift(const Foot& foot, const std::vector<s
 // none), lifted. Returns o(t), the correction that takes it there (zero outside contacts).
 std::vector<Eigen::Vector3d> hold_contacts(const Foot& foot, const FootPaths& at, const std::vector<std::pair<int, int>>& runs,
                                            const std::vector<Eigen::Vector3d>& pelvis_offset,
-                                           const std::vector<std::vector<double>>& lift, int blend_frames, FootPlan& plan) {
+                                           const std::vector<std::vector<double>>& lift, FootPlan& plan) {
   const auto support = [&](int f) { return support_point(foot, at, f); };
   const auto wanted_height = [&](int k, int f) { return foot.point_ground_height(k) + (lift.empty() ? 0.0 : lift[k][f]); };
   std::vector<Eigen::Vector3d> correction(pelvis_offset.size(), Eigen::Vector3d::Zero());
@@ -443,8 +443,9 @@ std::vector<Eigen::Vector3d> hold_contacts(const Foot& foot, const FootPaths& at
     // frame's brought back to the first point by the offsets at the switches before it (the least
     // squares anchor for the contact); when the support passes to another point, the anchor
     // passes with it by their offset. With a lift, so does the height: what the old point's target
-    // implies for the new one (rigid with it in this frame) less the new one's own, faded out over
-    // the blend, so the foot does not step down. Never below the new point's own: that would push it into the floor
+    // implies for the new one (rigid with it in this frame) less the new one's own is carried to the
+    // end of the contact, so the new point pivots where it stands instead of stepping down while the
+    // performer's foot rises. Never below the new point's own: that would push it into the floor
     // (RobotExpressive's toe, 0.2-0.3 cm on average over its planted frames of the SMPL-X walk).
     int k = support(first);
     Eigen::Vector2d anchor = Eigen::Vector2d::Zero(), switched = Eigen::Vector2d::Zero();
@@ -456,18 +457,14 @@ std::vector<Eigen::Vector3d> hold_contacts(const Foot& foot, const FootPaths& at
     }
     anchor /= last - first + 1;
     double carried = 0;
-    int carried_since = first;
     for (int f = first; f <= last; ++f) {
       const int now = support(f);
       if (now != k) {
         anchor += (at[now][f] - at[k][f]).head<2>();
         if (!lift.empty()) carried = std::max(0.0, wanted_height(k, f) + (at[now][f].z() - at[k][f].z()) - wanted_height(now, f));
-        carried_since = f;
         k = now;
       }
-      const int since = f - carried_since;
-      const double fade = since < blend_frames ? smoothstep(1.0 - static_cast<double>(since) / blend_frames) : 0.0;
-      correction[f] = Eigen::Vector3d(anchor.x(), anchor.y(), wanted_height(k, f) + fade * carried) - at[k][f];
+      correction[f] = Eigen::Vector3d(anchor.x(), anchor.y(), wanted_height(k, f) + carried) - at[k][f];
       // The toe is rigid with joints[0] in the reference's rotation, which the solver keeps: the
       // joint moved by the toe's correction puts the toe on its anchor.
       plan.joint[f] = static_cast<std::int8_t>(std::min<int>(k, static_cast<int>(foot.joints.size()) - 1));
@@ -575,7 +572,7 @@ MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const Fe
     if (foot.joints.size() == 1 && !foot.has_toe) feet.flat.assign(frames, 0.0);
     const std::vector<std::pair<int, int>> runs = contact_runs(contacts.planted[side]);
     const std::vector<std::vector<double>> lift = foot_lift(foot, paths.source_clearance[side], model.scale, contact_lift);
-    const std::vector<Eigen::Vector3d> correction = hold_contacts(foot, at, runs, plan.pelvis_offset, lift, blend_frames, feet);
+    const std::vector<Eigen::Vector3d> correction = hold_contacts(foot, at, runs, plan.pelvis_offset, lift, feet);
     fade_around_contacts(runs, correction, plan.pelvis_offset, blend_frames, feet);
   }
   return plan;
