@@ -118,6 +118,7 @@ void print_result(const retarget::RetargetReport& report) {
               result.foot_skate_ratio, source.foot_skate_ratio, result.foot_skate_ratio_gmd);
   std::printf("  penetration            %.3f cm (%.3f)\n", result.penetration_cm, source.penetration_cm);
   std::printf("  floating               %.3f cm (%.3f)\n", result.floating_cm, source.floating_cm);
+  std::printf("  foot tilt in contact   %.2f deg (%.2f)\n", result.foot_tilt_deg, source.foot_tilt_deg);
   std::printf("  jitter                 %.3f m/s^2 (%.3f)\n", result.jitter, source.jitter);
 }
 

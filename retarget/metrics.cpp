@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 #include "retarget/geometry.h"
@@ -48,8 +49,8 @@ void motion_metrics(const Clip& clip, double scale, const Feet& feet, const Foot
                     RetargetMetrics& metrics) {
   const int frames = clip.frame_count();
   FramePose before2(clip, feet.levelling), before(clip, feet.levelling), now(clip, feet.levelling);
-  long skating = 0, skating_gmd = 0, skate_samples = 0, contact_samples = 0;
-  double depth_sum = 0, height_sum = 0, jitter_sum = 0;
+  long skating = 0, skating_gmd = 0, skate_samples = 0, contact_samples = 0, tilt_samples = 0;
+  double depth_sum = 0, height_sum = 0, tilt_sum = 0, jitter_sum = 0;
   long jitter_samples = 0;
   Feet scaled_feet = feet;
   for (Foot& foot : scaled_feet.sides) {
@@ -71,6 +72,16 @@ void motion_metrics(const Clip& clip, double scale, const Feet& feet, const Foot
         depth_sum += std::max(0.0, -clearance);
         height_sum += std::max(0.0, clearance);
         ++contact_samples;
+        if (foot.point_count() >= 2) {
+          const int front = foot.point_count() - 1;
+          const Eigen::Vector3d chord = foot.point(front, now.position, now_toe) - now.position[foot.joints[0]];
+          const double length = chord.norm();
+          if (length > 0) {
+            const auto pitch = [length](double rise) { return std::asin(std::clamp(rise / length, -1.0, 1.0)); };
+            tilt_sum += std::abs(pitch(chord.z()) - pitch(foot.point_ground_height(front) - foot.ground_heights[0]));
+            ++tilt_samples;
+          }
+        }
       }
       if (f > 0) {
         const Eigen::Matrix3d before_toe = toe_frame(foot, before);
@@ -100,6 +111,7 @@ void motion_metrics(const Clip& clip, double scale, const Feet& feet, const Foot
   metrics.foot_skate_ratio_gmd = skate_samples ? static_cast<double>(skating_gmd) / skate_samples : 0.0;
   metrics.penetration_cm = contact_samples ? 100.0 * depth_sum / contact_samples : 0.0;
   metrics.floating_cm = contact_samples ? 100.0 * height_sum / contact_samples : 0.0;
+  metrics.foot_tilt_deg = tilt_samples ? tilt_sum / tilt_samples * 180.0 / std::numbers::pi : 0.0;
   metrics.jitter = jitter_samples ? jitter_sum / jitter_samples : 0.0;
 }
 

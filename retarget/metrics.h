@@ -30,6 +30,13 @@
 // (FootContacts), the mean of max(0, -clearance) and of max(0, clearance). The lowest foot point
 // is the lowest of the foot's points (ankle, ball of the foot, or a one-joint foot's toe:
 // contacts.h) relative to its ground height; skate follows that point.
+// Foot tilt, degrees: over the same (foot, frame), the mean of |pitch - pitch_flat| for a foot with
+// a front point (its ball, or a one-joint foot's toe: contacts.h), pitch = asin(dz / L) of the
+// line from its first joint to the front point (dz its rise, L its length) and pitch_flat the
+// same with both points at their ground heights: how far the foot is turned, heel or toe up, from
+// standing flat. The performer's comes from heel strikes and toe-offs; a rig whose ball joint
+// sits elsewhere on the sole than the performer's stands tilted when the foot segment follows the
+// performer's direction (README, "Retargeting conventions", feet).
 // Jitter, m/s^2: the mean over frames 1..T-2 and paired joints of
 //   | p(t+1) - 2 p(t) + p(t-1) | fps^2.
 //
@@ -65,6 +72,7 @@ struct RetargetMetrics {
   double foot_skate_ratio = 0;      // scale-aware (above)
   double foot_skate_ratio_gmd = 0;  // fixed thresholds (above)
   double penetration_cm = 0, floating_cm = 0;
+  double foot_tilt_deg = 0;
   double jitter = 0;  // m/s^2
 };
 

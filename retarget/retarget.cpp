@@ -35,6 +35,7 @@ nlohmann::ordered_json metrics_json(const RetargetMetrics& metrics, bool compara
   json["foot_skate_ratio_gmd"] = metrics.foot_skate_ratio_gmd;
   json["penetration_cm"] = metrics.penetration_cm;
   json["floating_cm"] = metrics.floating_cm;
+  json["foot_tilt_deg"] = metrics.foot_tilt_deg;
   json["jitter_m_per_s2"] = metrics.jitter;
   return json;
 }

@@ -107,6 +107,31 @@ TEST(MetricsTest, SkatePenetrationFloatingAndJitterByHand) {
   EXPECT_EQ(metrics.bone_direction.samples, 0);  // comparative metrics are for results only
 }
 
+// Foot tilt. The left foot is one joint (the ankle, 0.1 m up when flat) with a toe 0.2 m ahead and
+// 0.1 m below it, on the floor: flat, the line to the toe pitches asin(-0.1 / sqrt(0.05)) =
+// -26.57 degrees. In frame 1 the ankle turns 20 degrees about the lateral axis (toe down): the line
+// pitches -46.57 degrees, 20 from flat. Planted in frames 0 and 1 (tilts 0 and 20) but not in 2
+// (turned 40): the mean is 10. The right foot, an ankle alone, has no front point and no tilt.
+TEST(MetricsTest, FootTiltByHand) {
+  const Fixture fixture;
+  const std::vector<Vector3d> frame = {Vector3d(0, 0, 1), Vector3d(0.1, 0, 0.5), Vector3d(0.1, 0, 0.1), Vector3d(-0.1, 0, 0.5),
+                                       Vector3d(-0.1, 0, 0.1)};
+  Clip clip = placed({frame, frame, frame}, 30);
+  for (int f : {1, 2}) {
+    clip.rotations[5 * f + 2] = Eigen::Quaterniond(Eigen::AngleAxisd(f * 20.0 * std::numbers::pi / 180.0, Vector3d::UnitY()));
+  }
+  Feet feet;
+  feet.sides[0] = {{2}, {0.1}};
+  feet.sides[0].has_toe = true;
+  feet.sides[0].toe = Vector3d(0.2, 0, -0.1);
+  feet.sides[1] = {{4}, {0.1}};
+  FootContacts contacts;
+  contacts.planted[0] = {1, 1, 0};
+  contacts.planted[1] = {1, 1, 1};
+  const RetargetMetrics metrics = source_metrics(fixture.rig, clip, feet, contacts);
+  EXPECT_NEAR(metrics.foot_tilt_deg, 10.0, 1e-9);
+}
+
 // The result moves the left ankle 0.1 m sideways of the source's: the left shin (knee -> ankle,
 // 0.4 m long, straight down in the source) leans by atan(0.1 / 0.4) = 14.036 degrees; the right
 // shin is exact. The end effectors are the two ankles: 0.1 m and 0 off, relative to the pelvis.

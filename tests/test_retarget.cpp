@@ -318,6 +318,9 @@ TEST(RetargetTest, RobotExpressiveShinsFollowTheSourceAndBalancedPlantsTheFeet) 
   const RetargetMetrics fast_metrics = result.report.result_metrics;
   EXPECT_LT(fast.worst_pitch_error, 1e-9);
   EXPECT_LT(fast_metrics.bone_direction.max_deg, 1e-6);  // the shins from knee to foot joint included
+  // Pitched from the floor, the feet stand as flat in contact as the performer's (2.3 against 7.1
+  // degrees: the toe, 2.9 times as far ahead as the scaled ball, turns less for the same rise).
+  EXPECT_LT(fast_metrics.foot_tilt_deg, result.report.source_metrics.foot_tilt_deg);
 
   refine(result, source, default_refine_options(Quality::balanced));
   const Contact balanced = measure(result.transfer.clip);
