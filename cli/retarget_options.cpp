@@ -109,6 +109,10 @@ void print_result(const retarget::RetargetReport& report) {
   }
   std::printf("  branch directions      mean %.3f deg, max %.3f deg (the rigs' builds: hip width, shoulder slope)\n",
               result.branch_direction.mean_deg, result.branch_direction.max_deg);
+  if (result.foot_direction.samples > 0) {
+    std::printf("  feet                   mean %.3f deg, max %.3f deg (pitched to the floor: where the rigs put the ball joint)\n",
+                result.foot_direction.mean_deg, result.foot_direction.max_deg);
+  }
   if (result.hip_line.samples > 0) {
     std::printf("  hip line               mean %.3f deg, max %.3f deg (the pelvis's roll and turn)\n", result.hip_line.mean_deg,
                 result.hip_line.max_deg);

@@ -228,7 +228,7 @@ Feet target_feet(const Character& target, const BoneMap& map) {
   const std::vector<RigidTransform<double>> rest = target.skeleton.rest_world();
   for (Foot& foot : feet.sides) {
     for (std::size_t k = 0; k < foot.joints.size(); ++k) foot.ground_heights[k] = rest[foot.joints[k]].translation.z() - sole;
-    if (foot.joints.size() == 1) find_toe(target, rest, sole, foot);
+    find_toe(target, rest, sole, foot);
   }
   return feet;
 }

@@ -10,16 +10,18 @@
 // 0 for a foot flat on the floor, negative when it sinks in. Taking the lowest of ankle and ball
 // keeps a heel strike and a toe-off (either end down) at clearance ~0. The floor is z = 0.
 //
-// A target foot of one joint (no ball of the foot, as RobotExpressive's: a rigid block whose joint
-// sits at the heel, 4.5 cm above its sole, its toe 0.84 m ahead) has no joint to stand on at
-// toe-off. Its toe is taken from its mesh: of the rest vertices the foot carries (whose strongest
-// influence is the foot joint or a joint below it), those within a tenth of the carried height of
-// the lowest, the one farthest ahead (ahead: from the joint toward the carried vertices' centroid,
-// horizontally) gives the toe's height and reach, and the toe is that far straight ahead of the
-// joint. It is a point rigid with the joint (Foot::toe, in the joint's frame), counted
-// among the foot's points with its own ground height: clearance(t) is then the lowest of heel and
-// toe, and a foot that rolls over its toe at toe-off stays at clearance ~0 as a two-joint foot
-// does. A foot with a ball of the foot, a source's foot, or a foot that carries no mesh has none.
+// A target foot's joints need not reach the front of its sole: RobotExpressive's foot is one joint
+// at the heel of a rigid block (4.5 cm above its sole, its toe 0.84 m ahead), and RiggedFigure's
+// ball joint sits 3.5 cm ahead of its ankle on a 27 cm sole. Such a foot has nothing to stand on
+// at toe-off, and nothing that says where its sole lies. So every target foot that carries a mesh
+// takes a toe from it: of the rest vertices the foot carries (whose strongest influence is its
+// first joint or a joint below it), those within a tenth of the carried height of the lowest, the
+// one farthest ahead (ahead: from the joint toward the carried vertices' centroid, horizontally)
+// gives the toe's height and reach, and the toe is that far straight ahead of the joint. It is a
+// point rigid with the first joint (Foot::toe, in its frame), counted among the foot's points
+// with its own ground height: clearance(t) is then the lowest of heel, ball and toe, and a foot
+// that rolls over its toe at toe-off stays at clearance ~0. The transfer pitches the foot by it
+// (transfer.h). A source's foot, or a foot that carries no mesh, has none.
 //
 // The floor. A target character stands on z = 0 with its soles on the floor at rest: each foot
 // joint's ground height is its rest height above the lowest point of the rest mesh
@@ -65,7 +67,7 @@ namespace odyssey::retarget {
 struct Foot {
   std::vector<int> joints;             // rig joints: the ankle, then the ball of the foot, if mapped
   std::vector<double> ground_heights;  // height of each above the floor with the foot planted, m
-  // One-joint target feet (above): the front of the sole, in joints[0]'s frame (its world
+  // Target feet with a mesh (above): the front of the sole, in joints[0]'s frame (its world
   // rotation's), and its height above the floor with the foot planted flat.
   bool has_toe = false;
   Eigen::Vector3d toe = Eigen::Vector3d::Zero();
@@ -114,7 +116,7 @@ int lowest_foot_point(const Foot& foot, std::span<const Eigen::Vector3d> joint_p
 // The fitted floor and ground heights (see above). Throws std::invalid_argument when the map has
 // neither ankle nor ball of the foot for a side, or the clip has no frames.
 Feet source_feet(const Clip& source, const BoneMap& map, const ContactOptions& options = {});
-// Ground heights from the character's rest pose, and the toe of a one-joint foot (see above). Throws std::invalid_argument when
+// Ground heights from the character's rest pose, and each foot's toe (see above). Throws std::invalid_argument when
 // the map has neither ankle nor ball of the foot for a side.
 Feet target_feet(const Character& target, const BoneMap& map);
 

@@ -57,6 +57,10 @@ void motion_metrics(const Clip& clip, double scale, const Feet& feet, const Foot
     for (double& height : foot.ground_heights) height *= scale;
     foot.toe_ground_height *= scale;
   }
+  // Skate reads foot joints (ARCHITECTURE.md): a foot's toe stands in only for a missing ball of
+  // the foot.
+  Feet skate_feet = scaled_feet;
+  for (Foot& foot : skate_feet.sides) foot.has_toe = foot.has_toe && foot.joints.size() == 1;
   // joints[0]'s world rotation times the scale, which carries a toe offset (contacts.h) to where
   // the scaled clip has it.
   const auto toe_frame = [scale](const Foot& foot, const FramePose& pose) -> Eigen::Matrix3d {
@@ -84,14 +88,16 @@ void motion_metrics(const Clip& clip, double scale, const Feet& feet, const Foot
         }
       }
       if (f > 0) {
-        const Eigen::Matrix3d before_toe = toe_frame(foot, before);
-        const int lowest = lowest_foot_point(foot, before.position, before_toe);
-        const Eigen::Vector3d lowest_before = foot.point(lowest, before.position, before_toe);
-        const double clearance_before = lowest_before.z() - foot.point_ground_height(lowest);
-        const Eigen::Vector3d step = foot.point(lowest, now.position, now_toe) - lowest_before;
+        const Foot& joints = skate_feet[side];
+        const Eigen::Matrix3d before_toe = toe_frame(joints, before);
+        const int lowest = lowest_foot_point(joints, before.position, before_toe);
+        const Eigen::Vector3d lowest_before = joints.point(lowest, before.position, before_toe);
+        const double clearance_before = lowest_before.z() - joints.point_ground_height(lowest);
+        const double clearance_now = foot_clearance(joints, now.position, now_toe);
+        const Eigen::Vector3d step = joints.point(lowest, now.position, now_toe) - lowest_before;
         const double speed = step.head<2>().norm() * clip.fps;
         const auto skates = [&](const MetricThresholds& t) {
-          return clearance_before < t.contact_height && clearance < t.contact_height && speed > t.skate_speed;
+          return clearance_before < t.contact_height && clearance_now < t.contact_height && speed > t.skate_speed;
         };
         if (skates(scaled)) ++skating;
         if (skates(gmd)) ++skating_gmd;
@@ -201,12 +207,12 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
   metrics.end_effector_mean_m = effector_error.mean();
   metrics.end_effector_max_m = effector_error.max;
 
-  Accumulator chain, branch;
+  Accumulator chain, branch, feet;
   std::vector<std::pair<std::string, Accumulator>> limbs;
   for (const Bone& bone : bones) {
     const Segment& segment = *bone.segment;
     const bool build = segment.branch && !segment.spine_continuation;
-    Accumulator& total = build ? branch : chain;
+    Accumulator& total = build ? branch : segment.foot() ? feet : chain;
     total.sum += bone.error.sum;
     total.samples += bone.error.samples;
     total.max = std::max(total.max, bone.error.max);
@@ -214,6 +220,7 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
     metrics.bones.push_back({std::string(canonical_name(segment.canonical_start)) + "->" +
                                  std::string(canonical_name(segment.canonical_end)),
                              bone.error.direction()});
+    if (segment.foot()) continue;
     const std::string limb(canonical_limb(segment.canonical_end));
     auto it = std::find_if(limbs.begin(), limbs.end(), [&](const auto& entry) { return entry.first == limb; });
     if (it == limbs.end()) it = limbs.insert(limbs.end(), {limb, Accumulator{}});
@@ -223,6 +230,7 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
   }
   metrics.bone_direction = chain.direction();
   metrics.branch_direction = branch.direction();
+  metrics.foot_direction = feet.direction();
   for (const auto& [limb, accumulator] : limbs) metrics.limbs.push_back({limb, accumulator.direction()});
   return metrics;
 }

@@ -10,7 +10,11 @@
 // bone. The other segments of a branch joint (the pelvis with its hips and spine, the chest's
 // clavicles or shoulders, a wrist's fingers) have no single bone direction: the angles between
 // them are the rig's build (hip width, shoulder slope), which no rotation can change. They are
-// reported apart, as `branch_direction`, with the same definition.
+// reported apart, as `branch_direction`, with the same definition. So are the feet (ankle -> ball
+// of the foot), as `foot_direction`, and per bone: the transfer pitches a foot so that its sole
+// meets the floor as the performer's does (transfer.h), and rigs put the ball joint in different
+// places on the sole, so the segment's angle to the performer's is the two feet's builds as much as
+// the motion.
 // Hip line error, degrees: per frame, the angle between the source's right hip -> left hip line
 // and the target's, when both hips are paired. No limb starts at the pelvis, so this is where
 // the pelvis's roll and turn show (the rest alignment fits this lateral pair, rig.h).
@@ -28,15 +32,16 @@
 // by the scale-aware one, since fixed thresholds are small against its strides.
 // Penetration / floating, cm: over the (foot, frame) where the SOURCE foot is planted
 // (FootContacts), the mean of max(0, -clearance) and of max(0, clearance). The lowest foot point
-// is the lowest of the foot's points (ankle, ball of the foot, or a one-joint foot's toe:
-// contacts.h) relative to its ground height; skate follows that point.
+// is the lowest of the foot's points (ankle, ball of the foot, toe: contacts.h) relative to its
+// ground height. Skate follows the lowest foot joint, as ARCHITECTURE.md defines it: the toe stands
+// in for a ball of the foot only on a foot of one joint.
 // Foot tilt, degrees: over the same (foot, frame), the mean of |pitch - pitch_flat| for a foot with
-// a front point (its ball, or a one-joint foot's toe: contacts.h), pitch = asin(dz / L) of the
-// line from its first joint to the front point (dz its rise, L its length) and pitch_flat the
-// same with both points at their ground heights: how far the foot is turned, heel or toe up, from
-// standing flat. The performer's comes from heel strikes and toe-offs; a rig whose ball joint
-// sits elsewhere on the sole than the performer's stands tilted when the foot segment follows the
-// performer's direction (README, "Retargeting conventions", feet).
+// a front point (its toe, or else its ball: contacts.h), pitch = asin(dz / L) of the line from its
+// first joint to the front point (dz its rise, L its length) and pitch_flat the same with both
+// points at their ground heights: how far the foot is turned, heel or toe up, from standing flat.
+// The performer's comes from heel strikes and toe-offs. A rig whose ball joint sits elsewhere on
+// the sole than the performer's stood tilted, toes up, while the foot segment followed the
+// performer's direction (up to 48 degrees; README, "Retargeting conventions", feet).
 // Jitter, m/s^2: the mean over frames 1..T-2 and paired joints of
 //   | p(t+1) - 2 p(t) + p(t-1) | fps^2.
 //
@@ -67,6 +72,7 @@ struct RetargetMetrics {
   std::vector<NamedDirectionError> limbs;  // limbs that have chain bones, canonical order
   std::vector<NamedDirectionError> bones;  // every chain bone
   DirectionError branch_direction;
+  DirectionError foot_direction;  // ankle -> ball of the foot, pitched to the floor (above)
   DirectionError hip_line;  // no samples when a rig lacks a hip
   double end_effector_mean_m = 0, end_effector_max_m = 0;
   double foot_skate_ratio = 0;      // scale-aware (above)

@@ -26,7 +26,9 @@
 //   bone direction   w_dir ( unit(p_T(c) - p_T(a)) - unit(p_S(S(c)) - p_S(S(a))) )
 //                    every chain bone (a, c) whose direction depends on an unknown; for a
 //                    detached target segment (rig.h) the target direction is W_T(a) times the
-//                    rest chord in a's frame, as metrics.h measures it
+//                    rest chord in a's frame, as metrics.h measures it; a foot segment (ankle ->
+//                    ball of the foot) is aimed at the reference's direction instead, which the
+//                    transfer pitched to the floor (transfer.h)
 //   end effector     w_ee L ( (p_T(e) - p_T(pelvis)) - s (p_S(e) - p_S(pelvis)) ),  e = head,
 //                    wrists, ankles
 //   foot contact     w_foot L ( p_T(k) - D(t) ),  when the foot plan below places a joint k
@@ -47,9 +49,9 @@
 // average for the Mixamo test rig, 76 cm for RobotExpressive, with every bone exact): at w_ee = 1
 // the Mixamo rig's arms turn 1.3 degrees for effectors 0.7 cm closer, so the default keeps the
 // term a tie-breaker. The contact weight trades the legs against the floor where the rig's foot
-// cannot follow both: with its foot bone along the performer's, a Mixamo-style foot stands on
-// its heel with the ball 3.5-4.5 cm up, so at toe-off, as the performer's heel rises, holding the
-// target's heel down bends both legs. On the CMU clips, the legs' mean error above the
+// cannot follow both (measured when feet still followed the performer's foot segment, standing on
+// the heel with the ball 3.5-4.5 cm up, so that holding the heel down at toe-off bent both legs;
+// README, "Feet"). On the CMU clips, the legs' mean error above the
 // transfer's, at balanced (accurate), with the planted feet's mean distance from the floor:
 // at w_foot 30 (100 at accurate) 0.4-0.75 (0.5-1.1) degrees, 0.01 cm; at 6 (12), the defaults,
 // 0.35-0.6 (0.45-0.75), 0.01-0.07 cm, every planted frame of the walk tests within 8 mm; at 2
@@ -71,25 +73,22 @@
 //   joint is from the floor; then
 //   dp_plan(t) = ((k - 1) (P_ref(t) - P_ref(0)) horizontally, h). The character covers k times
 //   the ground the transfer gave it, which is what its legs can walk (`fit_stride` off: k = 1).
-// - Feet. Feet are the joints contacts.h names (ankle, ball of the foot) with the target's ground
-//   heights g_k; the floor is z = 0. During a source contact (a maximal run of planted frames)
-//   the foot's support joint k(t), its lowest joint in the reference (lowest_foot_joint, as the
-//   skate metric picks it), is held at D(t) = (anchor_x, anchor_y, g_k): on the floor, still. When
-//   the support passes to the other joint (heel strike -> flat -> toe-off) the anchor passes with
-//   it, shifted by the reference's ankle -> ball vector at that frame, so the foot rolls over the
-//   joint that holds without a jump. The anchor is the mean over the whole contact of where the
+// - Feet. Feet are the points contacts.h names (ankle, ball of the foot, the toe from the mesh)
+//   with the target's ground heights g_k; the floor is z = 0. During a source contact (a maximal
+//   run of planted frames) the foot's support point k(t), its lowest point in the reference
+//   (lowest_foot_point, as the skate metric picks it), is held at D(t) = (anchor_x, anchor_y,
+//   g_k): on the floor, still. When the support passes to another point (heel strike -> flat ->
+//   toe-off) the anchor passes with it, shifted by the reference's vector between the two at that
+//   frame, so the foot rolls over the point that holds without a jump. The anchor is the mean over the whole contact of where the
 //   reference (moved by dp_plan) has the support joint, each frame's shifted back to the first
 //   joint by those switches: the least-squares anchor for the contact, not only for the heel's
 //   part of it. Around a
 //   contact the correction fades in and out over `contact_blend_seconds` (smoothstep u from 1 to
 //   0): the boundary's support joint is wanted at p_ref + u (dp_plan + o) + (1 - u) dp, passing
 //   from its anchor to moving with the body; contacts closer than two fades hand the correction
-//   from one to the next across the gap. A foot of one joint with a toe (contacts.h) rolls over
-//   its toe as a two-joint foot over its ball: the toe is one of its points, and since the solver
-//   keeps the foot's rotation (the reference's, pitched by the transfer so the toe stands where the
-//   performer's ball does: transfer.h), moving the joint by the toe's correction holds the toe.
-//   A foot of one joint without a toe (no mesh to find it on) is held flat while planted (its
-//   rest rotation turned about z as the reference turns).
+//   from one to the next across the gap. The toe is placed through the foot's first joint, rigid
+//   with it (p + W toe). A foot of one joint without a toe (no mesh to find it on) is held flat
+//   while planted (its rest rotation turned about z as the reference turns).
 // - Lift (`contact_lift` d, 3 cm by default). A performer's foot is planted while its lowest point
 //   is within 5 cm of the floor (contacts.h), and at toe-off the heel rises well before that ends
 //   (8 cm on the synthetic SMPL-X walk). Held on the floor through it, the target's heel bends

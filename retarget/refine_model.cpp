@@ -176,6 +176,7 @@ std::vector<PendingTerm> residual_terms(const RetargetRig& rig, const RefineMode
     PendingTerm term{PendingTerm::Kind::direction, {}, {}, {}, {segment.target_start}, 0};
     term.direction.source_from = segment.source_start;
     term.direction.source_to = segment.source_end;
+    term.direction.foot = segment.foot();
     const int a = segment.target_start;
     if (segment.target_attached) {
       term.joints.push_back(segment.target_end);
@@ -200,7 +201,8 @@ std::vector<PendingTerm> residual_terms(const RetargetRig& rig, const RefineMode
     if (!depends.all_reachable(foot.joints, model.pelvis)) continue;
     Mask mask = 0;
     for (int j : foot.joints) mask |= depends.position[j];
-    pending.push_back({PendingTerm::Kind::foot, {}, {}, {side, {}, foot.ground_heights}, foot.joints, mask});
+    pending.push_back(
+        {PendingTerm::Kind::foot, {}, {}, {side, {}, foot.ground_heights, foot.has_toe, foot.toe, foot.toe_ground_height}, foot.joints, mask});
   }
   return pending;
 }
@@ -435,9 +437,9 @@ std::vector<std::vector<double>> foot_lift(const Foot& foot, const std::vector<s
 std::vector<Eigen::Vector3d> hold_contacts(const Foot& foot, const FootPaths& at, const std::vector<std::pair<int, int>>& runs,
                                            const std::vector<Eigen::Vector3d>& pelvis_offset,
                                            const std::vector<std::vector<double>>& lift, FootPlan& plan) {
-  const auto support = [&](int f) { return support_point(foot, at, f); };
   const auto wanted_height = [&](int k, int f) { return foot.point_ground_height(k) + (lift.empty() ? 0.0 : lift[k][f]); };
   std::vector<Eigen::Vector3d> correction(pelvis_offset.size(), Eigen::Vector3d::Zero());
+  const auto support = [&](int f) { return support_point(foot, at, f); };
   for (const auto& [first, last] : runs) {
     // The anchor: the mean horizontal position over the whole contact of the support point, each
     // frame's brought back to the first point by the offsets at the switches before it (the least
@@ -465,9 +467,7 @@ std::vector<Eigen::Vector3d> hold_contacts(const Foot& foot, const FootPaths& at
         k = now;
       }
       correction[f] = Eigen::Vector3d(anchor.x(), anchor.y(), wanted_height(k, f) + carried) - at[k][f];
-      // The toe is rigid with joints[0] in the reference's rotation, which the solver keeps: the
-      // joint moved by the toe's correction puts the toe on its anchor.
-      plan.joint[f] = static_cast<std::int8_t>(std::min<int>(k, static_cast<int>(foot.joints.size()) - 1));
+      plan.point[f] = static_cast<std::int8_t>(k);
       plan.offset[f] = pelvis_offset[f] + correction[f];
       plan.follow[f] = 0;
       if (!plan.flat.empty()) plan.flat[f] = 1;
@@ -489,7 +489,7 @@ void fade_around_contacts(const std::vector<std::pair<int, int>>& runs, const st
       for (int f = before + 1; f < after; ++f) {
         const double x = static_cast<double>(f - before) / (after - before);
         const double u = smoothstep(x);
-        plan.joint[f] = x < 0.5 ? plan.joint[before] : plan.joint[after];
+        plan.point[f] = x < 0.5 ? plan.point[before] : plan.point[after];
         plan.offset[f] = pelvis_offset[f] + (1 - u) * correction[before] + u * correction[after];
         plan.follow[f] = 0;
         if (!plan.flat.empty()) plan.flat[f] = 1;
@@ -498,7 +498,7 @@ void fade_around_contacts(const std::vector<std::pair<int, int>>& runs, const st
     }
     const auto fade = [&](int f, int boundary, int distance) {
       const double u = smoothstep(1.0 - static_cast<double>(distance) / (blend_frames + 1));
-      plan.joint[f] = plan.joint[boundary];
+      plan.point[f] = plan.point[boundary];
       plan.offset[f] = u * (pelvis_offset[f] + correction[boundary]);
       plan.follow[f] = 1 - u;
       if (!plan.flat.empty()) plan.flat[f] = u;
@@ -516,7 +516,7 @@ void fade_around_contacts(const std::vector<std::pair<int, int>>& runs, const st
 
 int Limb::residual_count() const {
   int count = 3 * static_cast<int>(directions.size() + effectors.size()) + 3 * owned + (moves_pelvis ? 6 : 0);
-  for (const FootTerm& foot : feet) count += 3 + static_cast<int>(foot.nodes.size());
+  for (const FootTerm& foot : feet) count += 3 + foot.point_count();
   return count;
 }
 
@@ -566,7 +566,7 @@ MotionPlan plan_motion(const RefineModel& model, FrameBuilder& builder, const Fe
       for (int f = 0; f < frames; ++f) point[f] += plan.pelvis_offset[f];
     }
     FootPlan& feet = plan.feet[side];
-    feet.joint.assign(frames, -1);
+    feet.point.assign(frames, -1);
     feet.offset.assign(frames, Eigen::Vector3d::Zero());
     feet.follow.assign(frames, 1.0);
     if (foot.joints.size() == 1 && !foot.has_toe) feet.flat.assign(frames, 0.0);
@@ -660,7 +660,10 @@ void FrameBuilder::fill(const Limb& limb, const FramePose& pose, const MotionPla
   frame.direction_target.resize(limb.directions.size());
   for (std::size_t d = 0; d < limb.directions.size(); ++d) {
     const DirectionTerm& term = limb.directions[d];
-    frame.direction_target[d] = (source_position(term.source_to) - source_position(term.source_from)).normalized();
+    frame.direction_target[d] = term.foot && term.to >= 0
+                                    ? Eigen::Vector3d(reference_position(limb.nodes[term.to].joint) - reference_position(limb.nodes[term.from].joint))
+                                          .normalized()
+                                    : Eigen::Vector3d(source_position(term.source_to) - source_position(term.source_from)).normalized();
   }
   frame.effector_target.resize(limb.effectors.size());
   for (std::size_t e = 0; e < limb.effectors.size(); ++e) {
@@ -671,11 +674,11 @@ void FrameBuilder::fill(const Limb& limb, const FramePose& pose, const MotionPla
   frame.contact_follow.resize(limb.feet.size());
   for (std::size_t f = 0; f < limb.feet.size(); ++f) {
     const FootPlan& feet = plan.feet[limb.feet[f].side];
-    const int k = feet.joint[frame_];
+    const int k = feet.point[frame_];
     frame.contact_joint[f] = k;
     frame.contact_follow[f] = feet.follow[frame_];
-    const int joint = k >= 0 ? model_.feet[limb.feet[f].side].joints[k] : -1;
-    frame.contact_target[f] = k >= 0 ? Eigen::Vector3d(reference_position(joint) + feet.offset[frame_]) : Eigen::Vector3d::Zero();
+    frame.contact_target[f] = k >= 0 ? Eigen::Vector3d(reference_point(model_.feet[limb.feet[f].side], k) + feet.offset[frame_])
+                                     : Eigen::Vector3d::Zero();
   }
 }
 

@@ -59,6 +59,7 @@ struct DirectionTerm {
   int from = -1, to = -1;        // nodes; `to` is -1 for a detached segment
   Eigen::Vector3d rest_chord;    // detached: unit rest chord in the start joint's frame
   int source_from = -1, source_to = -1;
+  bool foot = false;  // Segment::foot: the target is the reference's direction, not the source's
 };
 
 struct EffectorTerm {
@@ -70,6 +71,12 @@ struct FootTerm {
   int side = 0;
   std::vector<int> nodes;  // one per foot joint, in Foot::joints order
   std::vector<double> ground_heights;
+  // The foot's toe (contacts.h), its last point: at nodes[0] + W(nodes[0]) toe.
+  bool has_toe = false;
+  Eigen::Vector3d toe = Eigen::Vector3d::Zero();
+  double toe_ground_height = 0;
+
+  int point_count() const { return static_cast<int>(nodes.size()) + (has_toe ? 1 : 0); }
 };
 
 struct Limb {
@@ -120,19 +127,18 @@ struct RefineModel {
 
 RefineModel build_refine_model(const RetargetResult& result);
 
-// The foot plan of one side (refine.h): per frame the foot joint it places (index into
-// Foot::joints, -1 none), and where: D(t) = p_ref(t) + offset(t) + follow(t) dp(t), p_ref the
-// joint in the reference pose (placed as above), dp the pelvis's displacement. In a contact
-// follow = 0 and D is the anchor; fading out, u(t) going from 1 to 0, offset = u (dp_plan + o)
-// and follow = 1 - u, so the foot passes from its anchor to moving with the body.
+// The foot plan of one side (refine.h): per frame the foot point it places (index into the foot's
+// points, contacts.h: its joints, then its toe; -1 none), and where: D(t) = p_ref(t) + offset(t)
+// + follow(t) dp(t), p_ref the point in the reference pose (placed as above), dp the pelvis's
+// displacement. In a contact follow = 0 and D is the anchor; fading out, u(t) going from 1 to 0,
+// offset = u (dp_plan + o) and follow = 1 - u, so the foot passes from its anchor to moving with
+// the body.
 //
-// A foot's points are its joints and a one-joint foot's toe (contacts.h); `joint` names the joint
-// placed, the toe's correction moving joints[0] (rigid with it in the reference's rotation, which
-// the solver keeps). A foot of one joint without a toe is held flat while planted, its rotation
-// the rest's turned about z as the reference turns (heading_of), slerped from the reference's
-// with weight flat(t) = u(t) in the fades.
+// A foot of one joint without a toe is held flat while planted, its rotation the rest's turned
+// about z as the reference turns (heading_of), slerped from the reference's with weight
+// flat(t) = u(t) in the fades.
 struct FootPlan {
-  std::vector<std::int8_t> joint;
+  std::vector<std::int8_t> point;
   std::vector<Eigen::Vector3d> offset;
   std::vector<double> follow;
   std::vector<double> flat;  // empty for feet of two joints or with a toe
@@ -170,7 +176,7 @@ struct LimbFrame {
   std::vector<Eigen::Quaterniond> slot_reference;  // the reference's local rotation of every slot
   std::vector<Eigen::Vector3d> direction_target;   // unit
   std::vector<Eigen::Vector3d> effector_target;    // s (p_S(e) - p_S(pelvis))
-  std::vector<int> contact_joint;                  // per foot term: the plan's joint, -1 none
+  std::vector<int> contact_joint;                  // per foot term: the plan's point, -1 none
   std::vector<Eigen::Vector3d> contact_target;     // p_ref(t) + offset(t)
   std::vector<double> contact_follow;              // follow(t)
 };
@@ -191,6 +197,11 @@ class FrameBuilder {
   // Where a joint is in the loaded frame's reference pose, placed as above (an IK foot at the
   // end of its shin, not where the transfer put it).
   const Eigen::Vector3d& reference_position(int joint) const { return reference_placed_.world[joint].translation; }
+  // Where point k of a foot (contacts.h: its joints, then its toe) is in the loaded frame's reference.
+  Eigen::Vector3d reference_point(const Foot& foot, int k) const {
+    if (k < static_cast<int>(foot.joints.size())) return reference_position(foot.joints[k]);
+    return reference_position(foot.joints[0]) + reference_rotation(foot.joints[0]) * foot.toe;
+  }
   const Eigen::Quaterniond& reference_rotation(int joint) const { return reference_placed_.world[joint].rotation; }
   // Where a source joint is in the loaded frame: levelled, at the performer's size.
   const Eigen::Vector3d& source_position(int joint) const { return source_pose_.world[joint].translation; }
@@ -277,15 +288,20 @@ void limb_residuals(const Limb& limb, const RefineWeights& w, const LimbFrame& f
   }
   for (std::size_t f = 0; f < limb.feet.size(); ++f) {
     const FootTerm& foot = limb.feet[f];
-    const int joint = frame.contact_joint[f];
-    if (joint >= 0) {
-      put(position(foot.nodes[joint]) - frame.contact_target[f].template cast<T>() - T(frame.contact_follow[f]) * pelvis_offset,
+    const auto point = [&](int k) -> Vector3<T> {
+      if (k < static_cast<int>(foot.nodes.size())) return position(foot.nodes[k]);
+      return position(foot.nodes[0]) + pose.world[foot.nodes[0]].rotation * foot.toe.template cast<T>();
+    };
+    const int contact = frame.contact_joint[f];
+    if (contact >= 0) {
+      put(point(contact) - frame.contact_target[f].template cast<T>() - T(frame.contact_follow[f]) * pelvis_offset,
           length * w.foot_contact);
     } else {
       put(Vector3<T>::Zero(), 0.0);
     }
-    for (std::size_t k = 0; k < foot.nodes.size(); ++k) {
-      const T depth = T(foot.ground_heights[k]) - position(foot.nodes[k]).z();
+    for (int k = 0; k < foot.point_count(); ++k) {
+      const double ground = k < static_cast<int>(foot.nodes.size()) ? foot.ground_heights[k] : foot.toe_ground_height;
+      const T depth = T(ground) - point(k).z();
       *r++ = depth > T(0) ? T(length * w.floor) * depth : T(0);
     }
   }

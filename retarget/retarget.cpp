@@ -28,6 +28,7 @@ nlohmann::ordered_json metrics_json(const RetargetMetrics& metrics, bool compara
     for (const auto& bone : metrics.bones) bones[bone.name] = direction_json(bone.error);
     json["bone_direction_deg_per_bone"] = bones;
     json["branch_direction_deg"] = direction_json(metrics.branch_direction);
+    json["foot_direction_deg"] = direction_json(metrics.foot_direction);
     json["hip_line_deg"] = direction_json(metrics.hip_line);
     json["end_effector_m"] = {{"mean", metrics.end_effector_mean_m}, {"max", metrics.end_effector_max_m}};
   }

@@ -91,6 +91,13 @@ struct Segment {
   bool target_attached = true;    // false: detached on the target (see above)
   Eigen::Vector3d target_rest_direction = Eigen::Vector3d::Zero();  // unit, world; zero if degenerate
   double aligned_error_deg = 0;   // angle between source (aligned) and target rest directions
+
+  // Ankle -> ball of the foot. The transfer pitches a foot from the floor, not from this segment's
+  // source direction (transfer.h): rigs put the ball joint at different places on the sole.
+  bool foot() const {
+    return (canonical_start == canonical::left_ankle && canonical_end == canonical::left_foot) ||
+           (canonical_start == canonical::right_ankle && canonical_end == canonical::right_foot);
+  }
 };
 
 struct AlignmentSummary {

@@ -123,19 +123,20 @@ Eigen::Matrix3d rotation_factor(const Eigen::Matrix3d& b, const Eigen::Quaternio
   return x;
 }
 
-// `world` turned about its horizontal lateral axis so that its toe offset `toe` (in its frame)
-// rises `wanted` above the joint (transfer.h).
-Eigen::Quaterniond pitched_toe(const Eigen::Quaterniond& world, const Eigen::Vector3d& toe, double wanted) {
+// The turn about the horizontal lateral axis of a foot whose world rotation is `world` that makes
+// its toe (offset `toe` in the foot joint's frame) rise `wanted` above the joint (transfer.h); the
+// identity when the toe stands straight below the joint (no pitch axis).
+Eigen::Quaterniond toe_pitch(const Eigen::Quaterniond& world, const Eigen::Vector3d& toe, double wanted) {
   const Eigen::Vector3d offset = world * toe;
   const double ahead = offset.head<2>().norm();
-  if (!(ahead > 1e-9 * offset.norm())) return world;  // a toe straight below the joint: no pitch axis
+  if (!(ahead > 1e-9 * offset.norm())) return Eigen::Quaterniond::Identity();
   const double phi = std::atan2(offset.z(), ahead);
   const double theta = phi - std::asin(std::clamp(wanted / offset.norm(), -1.0, 1.0));
   const Eigen::Vector3d axis(-offset.y() / ahead, offset.x() / ahead, 0.0);  // z x f
-  return (Eigen::AngleAxisd(theta, axis) * world).normalized();
+  return Eigen::Quaterniond(Eigen::AngleAxisd(theta, axis));
 }
 
-// How far the toe of a one-joint target foot should stand above its joint (transfer.h):
+// How far the toe of a target foot should stand above its first joint (transfer.h):
 //   (g_toe - g_joint) + s ((z_ball - g_ball) - (z_ankle - g_ankle))_S.
 double toe_rise(const Foot& target, const Foot& source, std::span<const Eigen::Vector3d> source_position, double s) {
   const double ball_above_ankle = (source_position[source.joints[1]].z() - source.ground_heights[1]) -
@@ -222,7 +223,9 @@ void FastTransfer::make_rules(const std::vector<RigidTransform<double>>& rest) {
   }
   for (int side = 0; side < 2; ++side) {
     const Foot& foot = target_feet_[side];
-    if (foot.has_toe && rules_[foot.joints[0]].rotation == JointRule::Rotation::driven) rules_[foot.joints[0]].toe_side = side;
+    if (rules_[foot.joints[0]].rotation != JointRule::Rotation::driven || !foot.has_toe) continue;
+    rules_[foot.joints[0]].toe_side = side;
+    if (foot.joints.size() > 1 && rules_[foot.joints[1]].rotation == JointRule::Rotation::driven) rules_[foot.joints[1]].pitched_with = side;
   }
 }
 
@@ -400,6 +403,9 @@ void FastTransfer::place_target(const Feet& source_feet, const Eigen::Quaternion
   const Eigen::Vector3d& pelvis_source = work.source_position[rig_.source_joint(canonical::pelvis)];
   const Eigen::Vector3d pelvis_target = target_rest_pelvis_ + s * (pelvis_source - work.source_rest_pelvis);
   std::vector<QuaternionTransform<double>>& local = work.target.local;
+  // Per foot, the pitch its first joint took: a driven ball of the foot takes it too, so that it
+  // keeps its bend against the foot.
+  std::array<Eigen::Quaterniond, 2> pitch{Eigen::Quaterniond::Identity(), Eigen::Quaterniond::Identity()};
   const std::span<const int> order(placement_.order);
   for (std::size_t i = 0; i < order.size(); ++i) {
     const int j = order[i];
@@ -408,9 +414,12 @@ void FastTransfer::place_target(const Feet& source_feet, const Eigen::Quaternion
       local[j].rotation = driven_rotation(j, work);
       if (j == pelvis_) local[j].rotation = pelvis_roll * local[j].rotation;
       if (rule.toe_side >= 0 && source_feet[rule.toe_side].joints.size() == 2) {
-        const Foot& foot = target_feet_[rule.toe_side];
-        const double rise = toe_rise(foot, source_feet[rule.toe_side], work.source_position, s);
-        local[j].rotation = pitched_toe(local[j].rotation, foot.toe, rise);
+        const int side = rule.toe_side;
+        const Foot& foot = target_feet_[side];
+        pitch[side] = toe_pitch(local[j].rotation, foot.toe, toe_rise(foot, source_feet[side], work.source_position, s));
+        local[j].rotation = (pitch[side] * local[j].rotation).normalized();
+      } else if (rule.pitched_with >= 0) {
+        local[j].rotation = (pitch[rule.pitched_with] * local[j].rotation).normalized();
       }
     } else if (rule.rotation == JointRule::Rotation::follower) {
       local[j].rotation = work.target.world[rule.anchor].rotation * rule.anchor_to_joint;

@@ -100,18 +100,25 @@
 //   planted foot still, but with legs built unlike the performer's, the robot's thigh two thirds
 //   of the scaled performer's, the shin it draws leaves the source's by 8-10 degrees; planting
 //   feet is the refinement's job, which places them this way too, refine_model.h.)
-// - One-joint feet with a toe (contacts.h: RobotExpressive's, a block 2.9 times as long, heel to
-//   toe, as the scaled performer's ankle to ball) take their pitch from positions, not from the
-//   source's rotation: copied, the performer's toe-off pitch (up to 55 degrees) drives the long
-//   toe through the floor and drags it along while the foot swings. The rotation above is turned
-//   about its horizontal lateral axis through the joint so that the toe stands above the foot
-//   joint as the source's ball of the foot stands above its ankle, in clearances (contacts.h)
+// - Feet with a toe (contacts.h: the front of the sole, from the mesh) take their pitch from
+//   positions, not from the source's rotation. Copied, the foot segment points where the
+//   performer's ankle -> ball does, but rigs put the ball joint elsewhere on the sole: RiggedFigure's
+//   sits 61 degrees below its ankle at rest against the performer's 18, so its foot stood toes up
+//   by 41 degrees through every contact (`foot_tilt_deg`, metrics.h); RobotExpressive's block, 2.9
+//   times as long heel to toe as the scaled performer's ankle to ball, drove its toe through the
+//   floor at toe-off (the performer's pitch reaches 55 degrees there). The rotation above is turned
+//   about its horizontal lateral axis through the foot's first joint so that the toe stands above
+//   that joint as the source's ball of the foot stands above its ankle, in clearances (contacts.h)
 //   scaled by s:
-//     z(toe) - z(joint) = (g_toe - g_joint) + s ((z_ball - g_ball) - (z_ankle - g_ankle))_S.
-//   With the toe's offset o = W(t) toe = L f + v z (f horizontal, unit), a turn by theta about
-//   z x f gives o.z = v cos theta - L sin theta = rho sin(phi - theta), rho = |o|,
-//   phi = atan2(v, L): theta = phi - asin(wanted / rho). Heading and roll stay the source's; a
-//   source foot without a ball of the foot leaves the rotation as it is.
+//     z(toe) - z(joint) = (g_toe - g_joint) + s ((z_ball - g_ball) - (z_ankle - g_ankle))_S,
+//   so the sole is flat when the performer's foot is, and the heel rises as far as the performer's
+//   at toe-off whatever the foot's length. With the toe's offset o = W(t) toe = L f + v z (f
+//   horizontal, unit), a turn by theta about z x f gives o.z = v cos theta - L sin theta =
+//   rho sin(phi - theta), rho = |o|, phi = atan2(v, L): theta = phi - asin(wanted / rho). Heading
+//   and roll stay the source's; a driven ball of the foot is turned with it, keeping its bend
+//   against the foot; a source foot without a ball of the foot leaves the rotation as it is. The
+//   foot segment is then off the performer's direction by the two rigs' builds (metrics.h reports
+//   feet apart).
 // - Followers (bone_map.h) ride rigidly on their canonical parent's target joint A, placed as
 //   above, and take their rotation from it: W(t) = W(A, t) W^rest(A)^-1 W^rest.
 //
@@ -162,7 +169,8 @@ class FastTransfer {
     int branch_first = 0, branch_count = 0;  // driven branch joints: their chords in branch_chords_
     int anchor = -1;  // follower, attached: A
     Eigen::Quaterniond anchor_to_joint = Eigen::Quaterniond::Identity();  // W^rest(A)^-1 W^rest
-    int toe_side = -1;  // a one-joint target foot with a toe (contacts.h): its side
+    int toe_side = -1;      // the first joint of a foot with a toe (contacts.h), pitched (above): its side
+    int pitched_with = -1;  // a driven ball of the foot, turned with its foot: the side
   };
 
   struct BranchChord {

@@ -209,8 +209,9 @@ TEST(ExtremesTest, CharactersAt5cmAnd50mFast) {
     expect_limbs_under(run.result.report.result_metrics, 2.0, label);
     const Clip& clip = run.result.transfer.clip;
     expect_finite_unit(clip, label);
-    // Only lengths change with the size: the same rotations, translations k times as long.
-    EXPECT_LT(largest_rotation_difference(clip, full.result.transfer.clip), 1e-9) << label;
+    // Only lengths change with the size: the same rotations, translations k times as long. (The
+    // feet's pitch reads the toe off the mesh, float32: 5e-8 rad apart at the two extremes.)
+    EXPECT_LT(largest_rotation_difference(clip, full.result.transfer.clip), 1e-6) << label;
     // (The floor offset comes from the lowest mesh point, float32: 1e-7 m at full size.)
     for (std::size_t i = 0; i < clip.translations.size(); ++i) {
       ASSERT_LT((clip.translations[i] / run.factor - full.result.transfer.clip.translations[i]).norm(), 1e-7) << label;

@@ -338,14 +338,16 @@ TEST(RefineTest, PelvisTurnsRatherThanALegBends) {
   }
 }
 
-// The lift (refine.h, contact_lift, 3 cm by default): a planted support joint rises with the
-// performer's once that is more than d above its ground. At toe-off on the CMU walk the
-// performer's heel rises while the ball stays; held on the floor (the lift off), the heel of a
-// Mixamo-style foot (its ball ~4 cm up when the performer stands flat) bends both legs. With the
-// lift the legs come closer to the transfer's (RiggedFigure's worst leg mean 0.40 -> 0.17 deg at
-// 120 fps) and the feet rise at toe-off (5.2 cm), within the plan's bound (contact_error);
-// penetration + floating stays under the transfer's, and skate does not grow.
-TEST(RefineTest, ContactLiftLetsTheHeelRiseWithThePerformers) {
+// The lift (refine.h, contact_lift, 3 cm by default): a planted support point rises with the
+// performer's corresponding joint once that is more than d above its ground. It was made for feet
+// that stood toes up (their foot segment along the performer's): at toe-off their heel, pinned
+// while the performer's rose, bent both legs (RiggedFigure's worst leg 0.40 deg held, 0.17
+// lifted, at 120 fps). Feet pitched to the floor (transfer.h) raise the heel with the performer's
+// and pass their support to the toe, for which the performer's ball stands and which stays down:
+// the lift then changes the walk's legs by under 0.05 deg. Both keep the planted feet within the
+// plan's bound (contact_error) and under the transfer's penetration + floating, and the lift does
+// not add skate.
+TEST(RefineTest, ContactLiftKeepsPlantedFeetWithinItsBound) {
   const std::string character = "RiggedFigure.glb";
   const RefineOptions options = default_refine_options(Quality::balanced);
   ASSERT_EQ(options.contact_lift, 0.03);
@@ -363,8 +365,7 @@ TEST(RefineTest, ContactLiftLetsTheHeelRiseWithThePerformers) {
               metrics.penetration_cm + metrics.floating_cm,
               held.report.result_metrics.penetration_cm + held.report.result_metrics.floating_cm,
               fast.penetration_cm + fast.floating_cm);
-  EXPECT_LT(worst_leg_deg(lifted), worst_leg_deg(held) - 0.1);
-  EXPECT_GT(lifted_error.raised, 0.03);
+  EXPECT_NEAR(worst_leg_deg(lifted), worst_leg_deg(held), 0.05);
   EXPECT_LT(lifted_error.height, 0.01);
   EXPECT_LT(held_error.height, 0.01);
   EXPECT_LT(metrics.penetration_cm + metrics.floating_cm, fast.penetration_cm + fast.floating_cm);
