@@ -76,7 +76,7 @@
 // - Feet. Feet are the points contacts.h names (ankle, ball of the foot, the toe from the mesh)
 //   with the target's ground heights g_k; the floor is z = 0. During a source contact (a maximal
 //   run of planted frames) the foot's support point k(t), its lowest point in the reference
-//   (lowest_foot_point, as the skate metric picks it), is held at D(t) = (anchor_x, anchor_y,
+//   (lowest_foot_point), is held at D(t) = (anchor_x, anchor_y,
 //   g_k): on the floor, still. When the support passes to another point (heel strike -> flat ->
 //   toe-off) the anchor passes with it, shifted by the reference's vector between the two at that
 //   frame, so the foot rolls over the point that holds without a jump. The anchor is the mean over the whole contact of where the
