@@ -31,7 +31,7 @@
 //                    transfer pitched to the floor (transfer.h)
 //   end effector     w_ee L ( (p_T(e) - p_T(pelvis)) - s (p_S(e) - p_S(pelvis)) ),  e = head,
 //                    wrists, ankles
-//   foot contact     w_foot L ( p_T(k) - D(t) ),  when the foot plan below places a joint k
+//   foot contact     w_foot L ( p_T(k) - D(t) ),  when the foot plan below places a point k
 //   floor            w_floor L max(0, g_k - z_T(k)),  every foot joint k, every frame
 //   pose             w_pose 2 vec( q_ref,j^-1 q_j ),  sign taken so the scalar part is >= 0
 //   pelvis           w_pelvis L ( dp - dp_plan(t) )
@@ -51,7 +51,7 @@
 // term a tie-breaker. The contact weight trades the legs against the floor where the rig's foot
 // cannot follow both (measured when feet still followed the performer's foot segment, standing on
 // the heel with the ball 3.5-4.5 cm up, so that holding the heel down at toe-off bent both legs;
-// README, "Feet"). On the CMU clips, the legs' mean error above the
+// README, "Retargeting conventions", feet). On the CMU clips, the legs' mean error above the
 // transfer's, at balanced (accurate), with the planted feet's mean distance from the floor:
 // at w_foot 30 (100 at accurate) 0.4-0.75 (0.5-1.1) degrees, 0.01 cm; at 6 (12), the defaults,
 // 0.35-0.6 (0.45-0.75), 0.01-0.07 cm, every planted frame of the walk tests within 8 mm; at 2
@@ -76,19 +76,19 @@
 // - Feet. Feet are the points contacts.h names (ankle, ball of the foot, the toe from the mesh)
 //   with the target's ground heights g_k; the floor is z = 0. During a source contact (a maximal
 //   run of planted frames) the foot's support point k(t), its lowest point in the reference
-//   (lowest_foot_point), is held at D(t) = (anchor_x, anchor_y,
-//   g_k): on the floor, still. When the support passes to another point (heel strike -> flat ->
-//   toe-off) the anchor passes with it, shifted by the reference's vector between the two at that
-//   frame, so the foot rolls over the point that holds without a jump. The anchor is the mean over the whole contact of where the
-//   reference (moved by dp_plan) has the support joint, each frame's shifted back to the first
-//   joint by those switches: the least-squares anchor for the contact, not only for the heel's
-//   part of it. Around a
-//   contact the correction fades in and out over `contact_blend_seconds` (smoothstep u from 1 to
-//   0): the boundary's support joint is wanted at p_ref + u (dp_plan + o) + (1 - u) dp, passing
-//   from its anchor to moving with the body; contacts closer than two fades hand the correction
-//   from one to the next across the gap. The toe is placed through the foot's first joint, rigid
-//   with it (p + W toe). A foot of one joint without a toe (no mesh to find it on) is held flat
-//   while planted (its rest rotation turned about z as the reference turns).
+//   (lowest_foot_point), is held at D(t) = (anchor_x, anchor_y, g_k): on the floor, still. When
+//   the support passes to another point (heel strike -> flat -> toe-off) the anchor passes with
+//   it, shifted by the reference's vector between the two at that frame, so the foot rolls over
+//   the point that holds without a jump. The anchor is the mean over the whole contact of where
+//   the reference (moved by dp_plan) has the support point, each frame's shifted back to the
+//   first point by those switches: the least-squares anchor for the contact, not only for the
+//   heel's part of it. Around a contact the correction fades in and out over
+//   `contact_blend_seconds` (smoothstep u from 1 to 0): the boundary's support point is wanted at
+//   p_ref + u (dp_plan + o) + (1 - u) dp, passing from its anchor to moving with the body;
+//   contacts closer than two fades hand the correction from one to the next across the gap. The
+//   toe is placed through the foot's first joint, rigid with it (p + W toe). A foot of one joint
+//   without a toe (no mesh to find it on) is held flat while planted (its rest rotation turned
+//   about z as the reference turns).
 // - Lift (`contact_lift` d, 3 cm by default). A performer's foot is planted while its lowest point
 //   is within 5 cm of the floor (contacts.h), and at toe-off the heel rises well before that ends
 //   (8 cm on the synthetic SMPL-X walk). Held on the floor through it, the target's heel bends
@@ -97,9 +97,10 @@
 //   toe takes the ball's), s the rig's scale, e() a ramp eased over 2 cm (0 below -1 cm, x above
 //   +1 cm, (x + 1 cm)^2 / 4 cm between). Where the support passes to another joint, the height
 //   the old target implies for the new one, where it is above the new one's own, is carried to the
-//   end of the contact: the foot pivots on the new joint where it stands. The trade (README,
-//   "Retargeting as Blender sees it") is the legs and jitter against a foot that leaves the floor
-//   at toe-off.
+//   end of the contact: the foot pivots on the new joint where it stands. It was made for feet
+//   that stood toes up, whose pinned heel bent both legs at toe-off (README, "Retargeting as
+//   Blender sees it"); with feet pitched to the floor (transfer.h) it changes the shared walks'
+//   legs by under 0.05 degrees (tests/test_refine.cpp).
 //
 // Solvers.
 // - balanced: frame by frame, one small problem per limb with ceres::TinySolver and automatic
