@@ -669,13 +669,13 @@ void FrameBuilder::fill(const Limb& limb, const FramePose& pose, const MotionPla
   for (std::size_t e = 0; e < limb.effectors.size(); ++e) {
     frame.effector_target[e] = model_.scale * (source_position(limb.effectors[e].source_joint) - source_position(model_.source_pelvis));
   }
-  frame.contact_joint.resize(limb.feet.size());
+  frame.contact_point.resize(limb.feet.size());
   frame.contact_target.resize(limb.feet.size());
   frame.contact_follow.resize(limb.feet.size());
   for (std::size_t f = 0; f < limb.feet.size(); ++f) {
     const FootPlan& feet = plan.feet[limb.feet[f].side];
     const int k = feet.point[frame_];
-    frame.contact_joint[f] = k;
+    frame.contact_point[f] = k;
     frame.contact_follow[f] = feet.follow[frame_];
     frame.contact_target[f] = k >= 0 ? Eigen::Vector3d(reference_point(model_.feet[limb.feet[f].side], k) + feet.offset[frame_])
                                      : Eigen::Vector3d::Zero();

@@ -176,7 +176,7 @@ struct LimbFrame {
   std::vector<Eigen::Quaterniond> slot_reference;  // the reference's local rotation of every slot
   std::vector<Eigen::Vector3d> direction_target;   // unit
   std::vector<Eigen::Vector3d> effector_target;    // s (p_S(e) - p_S(pelvis))
-  std::vector<int> contact_joint;                  // per foot term: the plan's point, -1 none
+  std::vector<int> contact_point;                  // per foot term: the plan's point, -1 none
   std::vector<Eigen::Vector3d> contact_target;     // p_ref(t) + offset(t)
   std::vector<double> contact_follow;              // follow(t)
 };
@@ -292,7 +292,7 @@ void limb_residuals(const Limb& limb, const RefineWeights& w, const LimbFrame& f
       if (k < static_cast<int>(foot.nodes.size())) return position(foot.nodes[k]);
       return position(foot.nodes[0]) + pose.world[foot.nodes[0]].rotation * foot.toe.template cast<T>();
     };
-    const int contact = frame.contact_joint[f];
+    const int contact = frame.contact_point[f];
     if (contact >= 0) {
       put(point(contact) - frame.contact_target[f].template cast<T>() - T(frame.contact_follow[f]) * pelvis_offset,
           length * w.foot_contact);
