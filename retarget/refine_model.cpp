@@ -342,8 +342,7 @@ ReferencePaths reference_paths(const RefineModel& model, FrameBuilder& builder, 
     for (int side = 0; side < 2; ++side) {
       const Foot& foot = model.feet[side];
       FootPaths& points = paths.feet[side];
-      for (std::size_t k = 0; k < foot.joints.size(); ++k) points[k][f] = builder.reference_position(foot.joints[k]);
-      if (foot.has_toe) points.back()[f] = builder.reference_position(foot.joints[0]) + builder.reference_rotation(foot.joints[0]) * foot.toe;
+      for (int k = 0; k < foot.point_count(); ++k) points[k][f] = builder.reference_point(foot, k);
       const Foot& source = source_feet[side];
       for (std::size_t j = 0; j < source.joints.size(); ++j) {
         paths.source_clearance[side][j][f] = builder.source_position(source.joints[j]).z() - source.ground_heights[j];
@@ -437,9 +436,9 @@ std::vector<std::vector<double>> foot_lift(const Foot& foot, const std::vector<s
 std::vector<Eigen::Vector3d> hold_contacts(const Foot& foot, const FootPaths& at, const std::vector<std::pair<int, int>>& runs,
                                            const std::vector<Eigen::Vector3d>& pelvis_offset,
                                            const std::vector<std::vector<double>>& lift, FootPlan& plan) {
+  const auto support = [&](int f) { return support_point(foot, at, f); };
   const auto wanted_height = [&](int k, int f) { return foot.point_ground_height(k) + (lift.empty() ? 0.0 : lift[k][f]); };
   std::vector<Eigen::Vector3d> correction(pelvis_offset.size(), Eigen::Vector3d::Zero());
-  const auto support = [&](int f) { return support_point(foot, at, f); };
   for (const auto& [first, last] : runs) {
     // The anchor: the mean horizontal position over the whole contact of the support point, each
     // frame's brought back to the first point by the offsets at the switches before it (the least
