@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -19,6 +20,7 @@ constexpr double kFloorSmoothingSeconds = 0.1;  // sigma of dz(t) in transfer.h
 constexpr double kSlideSmoothingSeconds = 0.05;  // sigma of c(t)'s steps in transfer.h
 constexpr double kRollSmoothingSeconds = 0.05;  // sigma of r(t) in transfer.h
 constexpr double kLargestRoll = 0.26;          // rad (15 degrees)
+constexpr double kHeelDown = 0.01;             // m, at the performer's size: the floor bound's flat frames, transfer.h
 
 // `values` convolved with a Gaussian of `sigma` samples, cut at 3 sigma and normalised where it
 // runs past either end.
@@ -312,6 +314,8 @@ struct FastTransfer::Workspace {
   std::vector<Eigen::Vector3d> source_position, target_position;  // p_S, P(t) again, as contacts.h reads them
   Eigen::Vector3d source_rest_pelvis;      // p_S^rest(pelvis), levelled
   std::vector<double> gaps;                // g(foot, t) at 2 t + side
+  std::vector<double> joint_gaps;          // the same over the foot joints only (no toe)
+  std::vector<double> source_heel;         // the source ankle's clearance at 2 t + side
   std::vector<Eigen::Vector2d> steps;      // e(foot, t) at 2 t + side, from t to t + 1
   // Per foot, its support point (the lowest, contacts.h) in the last frame: which and where.
   std::array<int, 2> last_target_point{}, last_source_joint{};
@@ -324,6 +328,8 @@ struct FastTransfer::Workspace {
         target_position(transfer.placement_.joint_count()),
         source_rest_pelvis(levelling * transfer.rig_.source_rest_pelvis),
         gaps(2 * std::size_t(clip.frame_count())),
+        joint_gaps(2 * std::size_t(clip.frame_count())),
+        source_heel(2 * std::size_t(clip.frame_count())),
         steps(2 * std::size_t(clip.frame_count()), Eigen::Vector2d::Zero()) {
     source.base.rotation = levelling;
     for (std::size_t j = 0; j < transfer.rules_.size(); ++j) target.local[j] = transfer.rules_[j].local;
@@ -335,22 +341,33 @@ TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, co
   TransferResult result{empty_output(source)};
   Workspace work(*this, source, source_feet.levelling);
   const int frames = source.frame_count();
-  // First where the feet stand with the pelvis as driven, for the roll that levels them; then the
-  // clip with that roll.
+  // First where the feet stand with the pelvis as driven: for the roll that levels them, and for
+  // the floor a pitched foot's toe is kept above (transfer.h); then the clip with both.
   std::vector<Eigen::Quaterniond> rolls(frames, Eigen::Quaterniond::Identity());
-  if (left_hip_ >= 0 && right_hip_ >= 0) {
-    std::vector<Eigen::Vector3d> hip_chords(frames);
+  std::vector<std::optional<double>> floor(frames);
+  const bool rolled = left_hip_ >= 0 && right_hip_ >= 0;
+  const bool pitched = std::any_of(rules_.begin(), rules_.end(), [](const JointRule& rule) { return rule.toe_side >= 0; });
+  if (rolled || pitched) {
+    std::vector<Eigen::Vector3d> hip_chords(frames, Eigen::Vector3d::Zero());
     for (int f = 0; f < frames; ++f) {
       pose_source(source, f, work);
-      place_target(source_feet, rolls[f], work);
+      place_target(source_feet, rolls[f], std::nullopt, work);
       measure_feet(f, source_feet, work);
-      hip_chords[f] = work.target_position[left_hip_] - work.target_position[right_hip_];
+      if (rolled) hip_chords[f] = work.target_position[left_hip_] - work.target_position[right_hip_];
     }
-    rolls = pelvis_rolls(work.gaps, hip_chords, contacts, source.fps);
+    if (rolled) rolls = pelvis_rolls(work.gaps, hip_chords, contacts, source.fps);
+    if (pitched) {
+      FootContacts heel_down = contacts;
+      for (int side = 0; side < 2; ++side) {
+        for (int f = 0; f < frames; ++f) heel_down.planted[side][f] &= work.source_heel[2 * std::size_t(f) + side] < kHeelDown;
+      }
+      const std::vector<double> offsets = floor_offsets(work.joint_gaps, heel_down, source.fps);
+      for (int f = 0; f < frames; ++f) floor[f] = offsets[f];
+    }
   }
   for (int f = 0; f < frames; ++f) {
     pose_source(source, f, work);
-    place_target(source_feet, rolls[f], work);
+    place_target(source_feet, rolls[f], floor[f], work);
     write_frame(f, work, result.clip);
     measure_feet(f, source_feet, work);
   }
@@ -398,7 +415,8 @@ void FastTransfer::pose_source(const Clip& source, int frame, Workspace& work) c
 //   P(root) = P*(t) - W(root) W^rest(root)^-1 (P^rest(pelvis) - P^rest(root)),
 //   P*(t)   = P_T^rest(pelvis) + s (p_S(pelvis, t) - p_S^rest(pelvis)),
 // then forward kinematics places the joint (and composes a rest rotation with its parent's).
-void FastTransfer::place_target(const Feet& source_feet, const Eigen::Quaterniond& pelvis_roll, Workspace& work) const {
+void FastTransfer::place_target(const Feet& source_feet, const Eigen::Quaterniond& pelvis_roll, std::optional<double> floor_offset,
+                                Workspace& work) const {
   const double s = rig_.scale;
   const Eigen::Vector3d& pelvis_source = work.source_position[rig_.source_joint(canonical::pelvis)];
   const Eigen::Vector3d pelvis_target = target_rest_pelvis_ + s * (pelvis_source - work.source_rest_pelvis);
@@ -416,7 +434,13 @@ void FastTransfer::place_target(const Feet& source_feet, const Eigen::Quaternion
       if (rule.toe_side >= 0 && source_feet[rule.toe_side].joints.size() == 2) {
         const int side = rule.toe_side;
         const Foot& foot = target_feet_[side];
-        pitch[side] = toe_pitch(local[j].rotation, foot.toe, toe_rise(foot, source_feet[side], work.source_position, s));
+        double rise = toe_rise(foot, source_feet[side], work.source_position, s);
+        if (floor_offset) {
+          forward_kinematics(placement_, work.target, order.subspan(i, 1));  // its position, which its rotation does not move
+          const double lowest = s * foot_clearance(source_feet[side], work.source_position);
+          rise = std::max(rise, foot.toe_ground_height + lowest - (work.target.world[j].translation.z() + *floor_offset));
+        }
+        pitch[side] = toe_pitch(local[j].rotation, foot.toe, rise);
         local[j].rotation = (pitch[side] * local[j].rotation).normalized();
       } else if (rule.pitched_with >= 0) {
         local[j].rotation = (pitch[rule.pitched_with] * local[j].rotation).normalized();
@@ -493,6 +517,8 @@ void FastTransfer::measure_feet(int frame, const Feet& source_feet, Workspace& w
     const Eigen::Matrix3d first_rotation = work.target.world[target_foot.joints[0]].rotation.toRotationMatrix();
     work.gaps[2 * std::size_t(frame) + side] = s * foot_clearance(source_foot, source_position) -
                                                foot_clearance(target_foot, position, first_rotation);
+    work.source_heel[2 * std::size_t(frame) + side] = source_position[source_foot.joints[0]].z() - source_foot.ground_heights[0];
+    work.joint_gaps[2 * std::size_t(frame) + side] = s * foot_clearance(source_foot, source_position) - foot_clearance(target_foot, position);
     if (frame > 0) {
       const Eigen::Vector3d target_step =
           target_foot.point(work.last_target_point[side], position, first_rotation) - work.last_target_support[side];

@@ -119,6 +119,16 @@
 //   against the foot; a source foot without a ball of the foot leaves the rotation as it is. The
 //   foot segment is then off the performer's direction by the two rigs' builds (metrics.h reports
 //   feet apart).
+//   The rise assumes the leg lifts the heel as far as the scaled performer's, and a leg short for
+//   its foot does not: the KayKit mannequin's (37 cm of leg above a sole reaching 27 cm ahead of
+//   the ankle) lifts its heel 2.7 cm at the CMU walk's toe-offs where the scaled performer's rises
+//   10, and the rise alone put its toe 4.5 cm into the floor. So the toe stands no lower than the
+//   performer's lowest foot joint, in clearances scaled by s:
+//     rise >= g_toe + s clearance_S(t) - (z(joint) + dz_1(t)),
+//   dz_1 the floor offset dz(t) above from a first pass, over the foot joints alone and the frames
+//   where the performer's heel is down (ankle clearance under 1 cm): there a foot stands flat on
+//   both rigs, so what the toe does at toe-off does not move the floor it is held above. Both
+//   sides move with the source's height, so a clip whose floor climbs is pitched as a level one.
 // - Followers (bone_map.h) ride rigidly on their canonical parent's target joint A, placed as
 //   above, and take their rotation from it: W(t) = W(A, t) W^rest(A)^-1 W^rest.
 //
@@ -126,6 +136,7 @@
 // two nearest the previous frame's; the first frame has w >= 0).
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "retarget/contacts.h"
@@ -188,7 +199,7 @@ class FastTransfer {
   void check_source(const Clip& source, const FootContacts& contacts) const;
   Clip empty_output(const Clip& source) const;
   void pose_source(const Clip& source, int frame, Workspace& work) const;
-  void place_target(const Feet& source_feet, const Eigen::Quaterniond& pelvis_roll, Workspace& work) const;
+  void place_target(const Feet& source_feet, const Eigen::Quaterniond& pelvis_roll, std::optional<double> floor_offset, Workspace& work) const;
   static std::vector<Eigen::Quaterniond> pelvis_rolls(const std::vector<double>& gaps, const std::vector<Eigen::Vector3d>& hip_chords,
                                                       const FootContacts& contacts, double fps);
   Eigen::Quaterniond driven_rotation(int joint, const Workspace& work) const;

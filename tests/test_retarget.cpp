@@ -251,7 +251,8 @@ INSTANTIATE_TEST_SUITE_P(CmuClips, SharedAssetsTest, testing::ValuesIn(shared_ca
 // exactly (they were 8-10 degrees off when the feet were put where the scaled performer's ankles
 // are). Each foot is one joint at the heel of a long block: its toe comes from the mesh (the front
 // of the sole, 0.84 m ahead of the joint and on the floor at rest), and the foot is pitched so the
-// toe stands above the heel as the performer's ball of the foot stands above the ankle, so it
+// toe stands above the heel as the performer's ball of the foot stands above the ankle (or higher,
+// where the floor bound of transfer.h holds it no lower than the performer's foot), so it
 // neither dips into the floor at toe-off nor drags along it (with the performer's pitch copied,
 // the toe stood up to 0.5 m off where the ball puts it). Planting the feet is balanced's job.
 TEST(RetargetTest, RobotExpressiveShinsFollowTheSourceAndBalancedPlantsTheFeet) {
@@ -277,6 +278,8 @@ TEST(RetargetTest, RobotExpressiveShinsFollowTheSourceAndBalancedPlantsTheFeet) 
   }
   struct Contact {
     double mean = 0, worst = 0, worst_pitch_error = 0;
+    int raised_frames = 0;  // where the floor bound raised the toe above the rule's
+    double worst_raised_toe = 0;
   };
   // Over the source's planted frames: the lowest foot point's distance from the floor; and over
   // every frame, how far the toe's height above the heel is from the pitch rule's.
@@ -298,7 +301,15 @@ TEST(RetargetTest, RobotExpressiveShinsFollowTheSourceAndBalancedPlantsTheFeet) 
         };
         const double toe_above_heel = foot.point(1, positions, world[foot.joints[0]].rotation).z() - positions[foot.joints[0]].z();
         const double wanted = foot.toe_ground_height - foot.ground_heights[0] + result.rig.scale * (clearance_of(1) - clearance_of(0));
-        contact.worst_pitch_error = std::max(contact.worst_pitch_error, std::abs(toe_above_heel - wanted));
+        if (toe_above_heel - wanted > 1e-9) {
+          // Raised by the floor bound: the toe as high as the performer's lowest foot joint (scaled).
+          const double toe = foot.point(1, positions, world[foot.joints[0]].rotation).z() - foot.toe_ground_height;
+          const double lowest = result.rig.scale * std::min(clearance_of(0), clearance_of(1));
+          contact.raised_frames += 1;
+          contact.worst_raised_toe = std::max(contact.worst_raised_toe, std::abs(toe - lowest));
+        } else {
+          contact.worst_pitch_error = std::max(contact.worst_pitch_error, std::abs(toe_above_heel - wanted));
+        }
         const int knee = robot_map.joints[side == 0 ? canonical::left_knee : canonical::right_knee];
         const int ankle = robot_map.joints[side == 0 ? canonical::left_ankle : canonical::right_ankle];
         EXPECT_GT(positions[knee].z(), positions[ankle].z() + 0.3) << "frame " << f;  // the shin is 0.9 long
@@ -316,7 +327,11 @@ TEST(RetargetTest, RobotExpressiveShinsFollowTheSourceAndBalancedPlantsTheFeet) 
 
   const Contact fast = measure(result.transfer.clip);
   const RetargetMetrics fast_metrics = result.report.result_metrics;
+  std::printf("floor bound: %d foot-frames raised, toe at most %.2f cm off the bound there\n", fast.raised_frames, 100 * fast.worst_raised_toe);
   EXPECT_LT(fast.worst_pitch_error, 1e-9);
+  // Within 2 cm on the robot (0.9 cm at the performer's size): the bound's floor is the first
+  // pass's, and the floor offset is fitted again once the feet are pitched.
+  EXPECT_LT(fast.worst_raised_toe, 0.02);
   EXPECT_LT(fast_metrics.bone_direction.max_deg, 1e-6);  // the shins from knee to foot joint included
   // Pitched from the floor, the feet stand as flat in contact as the performer's (2.3 against 7.1
   // degrees: the toe, 2.9 times as far ahead as the scaled ball, turns less for the same rise).
@@ -335,6 +350,45 @@ TEST(RetargetTest, RobotExpressiveShinsFollowTheSourceAndBalancedPlantsTheFeet) 
   EXPECT_LT(metrics.penetration_cm, fast_metrics.penetration_cm);
   EXPECT_LT(metrics.floating_cm, fast_metrics.floating_cm);
   EXPECT_LT(metrics.floating_cm, 1.1 * result.report.source_metrics.floating_cm);
+}
+
+// The KayKit mannequin's legs are short for its feet: 37 cm of leg above a sole reaching 27 cm
+// ahead of the ankle. At the CMU walk's toe-offs its leg lifts the heel 2.7 cm where the scaled
+// performer's rises 10, so the pitch rule alone (the toe as far below the heel as the performer's
+// ball is below theirs) put the toe 4.5 cm into the floor, and balanced rolled the pelvis 4-5
+// degrees to lift it. The floor bound (transfer.h) keeps the toe no lower than the performer's
+// lowest foot joint instead (it went 3.4 cm below the floor without it).
+TEST(RetargetTest, AShortLegLiftsTheHeelLessAndTheToeStaysOnTheFloor) {
+  const Clip source = io::load_bvh(kAssets + "/mocap/cmu_walk_cgspeed.bvh", {io::kCmuMetresPerUnit});
+  const Character mannequin = io::load_character(kAssets + "/characters/kaykit_mannequin/manny_med_mod.gltf");
+  RetargetResult result = retarget_fast(source, humanoid_bone_map(source.skeleton, "walk"), mannequin,
+                                        humanoid_bone_map(mannequin.skeleton, "kaykit"));
+  const Clip& clip = result.transfer.clip;
+  std::vector<RigidTransform<double>> world(clip.joint_count()), source_world(source.joint_count());
+  std::vector<Vector3d> positions(clip.joint_count()), source_positions(source.joint_count());
+  double deepest = 0;  // how far the toe goes below the performer's lowest foot joint, scaled
+  for (int f = 0; f < clip.frame_count(); ++f) {
+    clip.world_pose(f, world);
+    source.world_pose(f, source_world);
+    for (int j = 0; j < clip.joint_count(); ++j) positions[j] = world[j].translation;
+    for (int j = 0; j < source.joint_count(); ++j) source_positions[j] = result.source_feet.levelling * source_world[j].translation;
+    for (int side = 0; side < 2; ++side) {
+      const Foot& foot = result.target_feet[side];
+      ASSERT_TRUE(foot.has_toe);
+      const double toe = foot.point(foot.point_count() - 1, positions, world[foot.joints[0]].rotation).z() - foot.toe_ground_height;
+      deepest = std::max(deepest, result.rig.scale * foot_clearance(result.source_feet[side], source_positions) - toe);
+    }
+  }
+  std::printf("deepest toe %.2f cm below the performer's lowest foot joint\n", 100 * deepest);
+  EXPECT_LT(deepest, 0.01);
+
+  const RetargetMetrics fast = result.report.result_metrics;
+  refine(result, source, default_refine_options(Quality::balanced));
+  const RetargetMetrics& balanced = result.report.result_metrics;
+  std::printf("hip line fast %.2f, balanced %.2f deg; jitter fast %.2f, balanced %.2f, source %.2f m/s^2\n", fast.hip_line.mean_deg,
+              balanced.hip_line.mean_deg, fast.jitter, balanced.jitter, result.report.source_metrics.jitter);
+  EXPECT_LT(balanced.hip_line.mean_deg, fast.hip_line.mean_deg + 0.5);
+  EXPECT_LT(balanced.jitter, 1.2 * fast.jitter);
 }
 
 // Three source spine bones (spine1 -> spine2 -> spine3 -> neck) onto one target torso bone
