@@ -155,7 +155,8 @@ void add_retarget_settings(Args& args) {
               "rest")
       .option("weights", "LIST",
               "refinement weights over the quality's defaults, NAME=VALUE separated by commas; names: "
-              "bone_direction, end_effector, foot_contact, floor, pose, pelvis, pelvis_turn, smoothness, pelvis_smoothness "
+              "bone_direction, end_effector, foot_contact, floor, pose, pelvis, pelvis_turn, smoothness, pelvis_smoothness, "
+              "pelvis_lag "
               "(defaults and units: README, retargeting conventions)")
       .option("contact-lift", "M|off",
               "let a planted foot joint rise with the performer's once the performer's is more than M metres above "

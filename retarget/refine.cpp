@@ -282,6 +282,7 @@ struct Refinement {
 };
 
 // Balanced: windows of consecutive frames, each frame warm-started from the one before.
+constexpr double kLagLeadSeconds = 0.25;
 long balanced_pass(Refinement& refinement, Clip& out, int& window_count) {
   const RefineModel& model = refinement.model;
   const RefineOptions& options = refinement.options;
@@ -303,13 +304,17 @@ long balanced_pass(Refinement& refinement, Clip& out, int& window_count) {
     for (const Limb& limb : model.limbs) state.solvers.push_back(make_limb_solver(limb, options.weights, options.max_iterations));
     return state;
   };
+  // With the lag, each window first solves the frames of the lead before it and discards them, so
+  // that its first frame starts from a settled lag, not from a reset (refine.h).
+  const int lead = options.weights.pelvis_lag > 0 ? static_cast<int>(std::lround(kLagLeadSeconds * refinement.reference.fps)) : 0;
   const auto work = [&](int window, State& state) {
-    const int first = window * size, end = std::min(frames, first + size);
+    const int first = window * size, end = std::min(frames, first + size), start = std::max(0, first - lead);
     long window_iterations = 0;  // counted here, stored once: neighbouring counters share a cache line
-    for (int f = first; f < end; ++f) {
+    Eigen::Vector3d solved_offset = Eigen::Vector3d::Zero();  // dp of the frame solved before
+    for (int f = start; f < end; ++f) {
       state.builder.load(f);
       const std::vector<Eigen::Vector3d>& pelvis_plan = refinement.plan.pelvis_offset;
-      if (f == first || !options.warm_start) {
+      if (f == start || !options.warm_start) {
         state.builder.reference_pose(state.pose);
         state.pose.pelvis_offset = pelvis_plan[f];
       } else {
@@ -320,15 +325,21 @@ long balanced_pass(Refinement& refinement, Clip& out, int& window_count) {
         }
         state.pose.pelvis_offset += pelvis_plan[f] - pelvis_plan[f - 1];
       }
+      // The lag term holds dp - dp_plan near the previous frame's (refine.h).
+      const double lag = f == start ? 0.0 : options.weights.pelvis_lag * model.length_scale * std::sqrt(state.builder.fps());
+      const Eigen::Vector3d previous =
+          f == start ? pelvis_plan[f] : Eigen::Vector3d(solved_offset + pelvis_plan[f] - pelvis_plan[f - 1]);
       for (std::size_t l = 0; l < model.limbs.size(); ++l) {
         state.builder.fill(model.limbs[l], state.pose, refinement.plan, state.limb_frames[l]);
+        state.limb_frames[l].pelvis_previous = previous;
+        state.limb_frames[l].pelvis_lag = lag;
         window_iterations += state.solvers[l]->solve(state.limb_frames[l], state.pose);
       }
+      solved_offset = state.pose.pelvis_offset;
+      for (int u = 0; u < unknowns; ++u) state.previous_reference[u] = state.builder.reference_local(model.unknown_joints[u]);
+      if (f < first) continue;  // the lead: another window's frame
       state.builder.write(state.pose, refinement.plan, out);
-      for (int u = 0; u < unknowns; ++u) {
-        state.previous_reference[u] = state.builder.reference_local(model.unknown_joints[u]);
-        refinement.solved_rotation[std::size_t(f) * unknowns + u] = state.pose.rotation[u];
-      }
+      for (int u = 0; u < unknowns; ++u) refinement.solved_rotation[std::size_t(f) * unknowns + u] = state.pose.rotation[u];
       refinement.solved_offset[f] = state.pose.pelvis_offset;
       refinement.solved_turn[f] = state.pose.pelvis_turn;
     }
@@ -583,14 +594,10 @@ void check_options(const RefineOptions& options) {
   if (options.contact_lift && (!(*options.contact_lift >= 0) || !std::isfinite(*options.contact_lift))) {
     fail("contact_lift must be a non-negative number of metres, got " + std::to_string(*options.contact_lift));
   }
-  const RefineWeights& w = options.weights;
-  const std::pair<const char*, double> weights[] = {
-      {"bone_direction", w.bone_direction}, {"end_effector", w.end_effector}, {"foot_contact", w.foot_contact},
-      {"floor", w.floor},                   {"pose", w.pose},                 {"pelvis", w.pelvis},
-      {"pelvis_turn", w.pelvis_turn},       {"smoothness", w.smoothness},     {"pelvis_smoothness", w.pelvis_smoothness}};
-  for (const auto& [name, value] : weights) {
+  for (const RefineWeightName& weight : refine_weight_names()) {
+    const double value = options.weights.*(weight.weight);
     if (!(value >= 0) || !std::isfinite(value)) {
-      fail(std::string("weight ") + name + " must be a non-negative number, got " + std::to_string(value));
+      fail(std::string("weight ") + weight.name + " must be a non-negative number, got " + std::to_string(value));
     }
   }
 }
@@ -621,6 +628,7 @@ RefineOptions default_refine_options(Quality quality) {
     options.weights.foot_contact = 12;
     options.weights.smoothness = 0.0005;
     options.weights.pelvis_smoothness = 0.01;
+    options.weights.pelvis_lag = 0;
   }
   return options;
 }
@@ -693,6 +701,7 @@ constexpr RefineWeightName kRefineWeightNames[] = {
     {"pelvis_turn", &RefineWeights::pelvis_turn},
     {"smoothness", &RefineWeights::smoothness},
     {"pelvis_smoothness", &RefineWeights::pelvis_smoothness},
+    {"pelvis_lag", &RefineWeights::pelvis_lag},
 };
 }  // namespace
 

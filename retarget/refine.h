@@ -36,6 +36,11 @@
 //   pose             w_pose 2 vec( q_ref,j^-1 q_j ),  sign taken so the scalar part is >= 0
 //   pelvis           w_pelvis L ( dp - dp_plan(t) )
 //   pelvis turn      w_turn 2 vec( r ),  sign taken so the scalar part is >= 0
+//   (balanced) lag   w_lag L sqrt(fps) ( c(t) - c(t-1) ),  horizontal, c = dp - dp_plan, c(t-1)
+//                    the frame solved before; each window starts 0.25 s early (frames it
+//                    discards) so that its first frame's lag has settled: started cold, a
+//                    window's lag left the 100,000-frame tiled walk's tiles 0.25 mm apart
+//                    (tests/test_extremes.cpp holds them to 0.1 mm)
 //   (accurate only)  w_smooth fps^2 ( c_j(t+1) - 2 c_j(t) + c_j(t-1) ),  c_j = q_ref,j^-1 q_j,
 //                    the leg joints' corrections and the turn r (quaternion components), and
 //                    w_pelvis_smooth L fps^2 ( dp(t+1) - 2 dp(t) + dp(t-1) ),
@@ -57,6 +62,24 @@
 // 0.35-0.6 (0.45-0.75), 0.01-0.07 cm, every planted frame of the walk tests within 8 mm; at 2
 // (3) 0.2-0.35 (0.25-0.5), but planted feet lift 1.5-3 cm in the last frames of a contact.
 // RobotExpressive's jump, 0.7-1.0 at any of these, is the exception.
+// The lag. Solved frame by frame, dp is wherever this frame's contacts put it, and the reference's
+// planted feet slide a little each frame where the rigs' feet differ (at toe-off on Rigify's
+// SMPL-X walk the transferred toe moves 1.5 cm forward and 1.8 cm sideways in three frames), so
+// dp jumped 1-2 cm in two frames at each handoff: 5.0 m/s^2 mean root acceleration against fast's
+// 2.6 (3.8 with the lag, 3.1 at accurate). With a per-frame stiffness a of the other terms on dp,
+// the lag makes each frame's solution c(t) = alpha y(t) + (1 - alpha) c(t-1), y the lag-free
+// solution: an exponential smoother with (1 - alpha) / alpha = w_lag^2 L^2 fps / a frames, a time
+// constant of about w_lag^2 L^2 / a seconds at any frame rate (hence sqrt(fps)). Horizontal only:
+// lagging the height lifted planted feet 1.1-1.7 cm off the floor on the CMU walk at 120 fps.
+// First order on purpose: the same term on the acceleration, against 2 c(t-1) - c(t-2), is an
+// underdamped second-order filter whose damping falls with the frame rate; at 120 fps it doubled
+// the jitter and bent the legs 4 degrees. Measured at w_lag 0.5 (the balanced default) on the
+// five shared humanoids, CMU walk and jump and the SMPL-X walk at 30 fps: jitter over the
+// source's 0.98-1.46 -> 0.93-1.37, the legs' mean error up by 0-0.15 degrees, skate within 0.004
+// (tests/test_refine.cpp holds it at 120 fps too). accurate's space-time problem smooths dp
+// itself, and its first pass runs without the lag by default (with it, the accurate results'
+// jitter ratios moved by at most 0.005 and their limbs by at most 0.01 degrees).
+//
 // Smoothing the corrections rather than the rotations themselves leaves the performer's motion
 // (and its capture noise) as it was: smoothing local rotations fights the capture, whose root
 // noise the legs compensate, and makes the pelvis shake to keep the feet planted; what the
@@ -157,6 +180,7 @@ struct RefineWeights {
   double pelvis_turn = 1.0;        // w_turn, per radian of the pelvis's turn (FramePose)
   double smoothness = 0.0;         // w_smooth, per rad/s^2 (accurate)
   double pelvis_smoothness = 0.0;  // w_pelvis_smooth, per m/s^2 (accurate)
+  double pelvis_lag = 0.5;         // w_lag, per metre the correction moves in a frame, times sqrt(fps) (balanced)
 };
 
 struct RefineOptions {
@@ -181,13 +205,14 @@ struct RefineOptions {
 
 // Defaults per quality (fast: nothing to refine):
 //   balanced: the weights above, windows of 64 frames;
-//   accurate: foot contact 12 per m (at 6 the smoothness lets planted feet lift up to 1.6 cm
+//   accurate: no lag, foot contact 12 per m (at 6 the smoothness lets planted feet lift up to 1.6 cm
 //   and slide 1.1 cm a frame on the CMU walk), smoothness 0.0005 per rad/s^2 and pelvis
 //   smoothness 0.01 per m/s^2, spans of 1,024 frames with 32 frames of lookahead.
 RefineOptions default_refine_options(Quality quality);
 
 // The weights by the names that command lines, scene files and reports use ("bone_direction",
-// "end_effector", "foot_contact", "floor", "pose", "pelvis", "smoothness", "pelvis_smoothness").
+// "end_effector", "foot_contact", "floor", "pose", "pelvis", "pelvis_turn", "smoothness",
+// "pelvis_smoothness", "pelvis_lag").
 struct RefineWeightName {
   const char* name;
   double RefineWeights::*weight;

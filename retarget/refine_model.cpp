@@ -514,7 +514,7 @@ void fade_around_contacts(const std::vector<std::pair<int, int>>& runs, const st
 }  // namespace
 
 int Limb::residual_count() const {
-  int count = 3 * static_cast<int>(directions.size() + effectors.size()) + 3 * owned + (moves_pelvis ? 6 : 0);
+  int count = 3 * static_cast<int>(directions.size() + effectors.size()) + 3 * owned + (moves_pelvis ? 9 : 0);
   for (const FootTerm& foot : feet) count += 3 + foot.point_count();
   return count;
 }

@@ -168,6 +168,11 @@ struct LimbFrame {
   QuaternionTransform<double> pelvis;  // the reference's pelvis, world (dp not added)
   Eigen::Vector3d pelvis_offset;  // dp's current value
   Eigen::Vector3d pelvis_prior;   // dp_plan(t)
+  // balanced: the previous frame's solved dp carried onto this frame, dp(t-1) + dp_plan(t) -
+  // dp_plan(t-1), and the lag weight w_lag L sqrt(fps); the weight is 0 where no frame was solved
+  // before in the window, and in accurate's space-time problem.
+  Eigen::Vector3d pelvis_previous = Eigen::Vector3d::Zero();
+  double pelvis_lag = 0;
   Eigen::Quaterniond pelvis_turn; // the turn's current value
   // The limb's nodes at the current values: base the pelvis moved by dp; locals as the placement
   // tree's (a slot's at its current value); world transforms from forward kinematics.
@@ -252,8 +257,8 @@ struct LimbWork {
 };
 
 // Residuals of one limb in one frame (refine.h), in the order: directions (3 each), effectors
-// (3 each), feet (contact 3, then floor 1 per joint), pose of the owned slots (3 each), pelvis
-// and its turn (3 each, when the limb moves it); lengths times limb.length_scale. The owned slots'
+// (3 each), feet (contact 3, then floor 1 per joint), pose of the owned slots (3 each), pelvis,
+// its turn and its lag (3 each, when the limb moves it); lengths times limb.length_scale. The owned slots'
 // rotations are in work.slot(s), the rest as work.load(frame) left it; pelvis_turn is read only
 // when the limb moves the pelvis.
 template <class T>
@@ -311,6 +316,8 @@ void limb_residuals(const Limb& limb, const RefineWeights& w, const LimbFrame& f
   if (limb.moves_pelvis) {
     put(pelvis_offset - frame.pelvis_prior.template cast<T>(), length * w.pelvis);
     put(rotation_difference(Eigen::Quaternion<T>::Identity(), pelvis_turn), w.pelvis_turn);
+    const Vector3<T> moved = pelvis_offset - frame.pelvis_previous.template cast<T>();
+    put(Vector3<T>(moved.x(), moved.y(), T(0)), frame.pelvis_lag);
   }
 }
 

@@ -1,6 +1,6 @@
 // Refinement (qualities balanced and accurate) on the shared CMU walk onto the Mixamo-named test
 // rig, RiggedFigure and the IK-style RobotExpressive: feet planted during the source's contacts,
-// limbs still following the source, no more skating than the source, accurate smoother than
+// limbs still following the source, no more skating than the source, accurate as smooth as
 // balanced, warm start and threads not changing the answer, accurate's spans meeting without a
 // seam, the pelvis turning rather than a leg bending; and the placement model assembling the
 // transferred clip back from the transferred pose.
@@ -219,7 +219,13 @@ INSTANTIATE_TEST_SUITE_P(CmuWalk, RefineWalkTest,
 // Accurate is smoother than balanced, and within the target of 1.1 times the source's
 // jitter on the humans. The robot's jitter is its forearms, which the transfer sets (fast has as
 // much), so there accurate is held to 1.1 times fast's.
-TEST(RefineTest, AccurateIsSmootherThanBalanced) {
+// Balanced's pelvis lag (refine.h) low-passes the root's horizontal correction frame by frame;
+// accurate smooths the corrections over the clip and follows the performer's accelerations more
+// closely, so on this walk at 120 fps the two are about as smooth: the Mixamo test rig 29.2 m/s^2
+// at balanced against 30.1 at accurate and the source's 30.3 (at 30 fps accurate is the smoother
+// on every shared humanoid and clip: README). Accurate may be up to 4% rougher than balanced and
+// stays within 1.1 times the source's.
+TEST(RefineTest, AccurateIsAsSmoothAsBalancedWithinFourPercent) {
   for (const std::string& character : kCharacters) {
     const RetargetReport& report = refined_by_default(character, Quality::balanced).report;
     const double balanced = report.result_metrics.jitter, source = report.source_metrics.jitter;
@@ -227,7 +233,7 @@ TEST(RefineTest, AccurateIsSmootherThanBalanced) {
     const double accurate = refined_by_default(character, Quality::accurate).report.result_metrics.jitter;
     std::printf("%s: jitter source %.1f, fast %.1f, balanced %.1f, accurate %.1f m/s^2\n", character.c_str(), source, fast,
                 balanced, accurate);
-    EXPECT_LT(accurate, balanced) << character;
+    EXPECT_LT(accurate, 1.04 * balanced) << character;
     EXPECT_LE(accurate, 1.1 * (character == "RobotExpressive.glb" ? fast : source)) << character;
   }
 }
@@ -370,6 +376,39 @@ TEST(RefineTest, ContactLiftKeepsPlantedFeetWithinItsBound) {
   EXPECT_LT(held_error.height, 0.01);
   EXPECT_LT(metrics.penetration_cm + metrics.floating_cm, fast.penetration_cm + fast.floating_cm);
   EXPECT_LE(metrics.foot_skate_ratio, held.report.result_metrics.foot_skate_ratio);
+}
+
+// The pelvis lag (refine.h) makes the frame-by-frame solve an exponential smoother of the pelvis
+// correction whose time constant is the same in seconds at any frame rate: at 120 fps (the walk as
+// recorded) and resampled to 30, it lowers the jitter of every character by 3-7 percent, bends
+// no leg more than 0.2 degrees further and does not add skate. The second-order form it replaced
+// (against 2 c(t-1) - c(t-2)) rang at 120 fps, doubling the jitter.
+TEST(RefineTest, PelvisLagSmoothsAtAnyFrameRate) {
+  const BoneMap source_map = humanoid_bone_map(shared().source.skeleton, "walk");
+  for (const double fps : {120.0, 30.0}) {
+    const Clip source = fps == shared().source.fps ? shared().source : shared().source.resampled(fps);
+    for (const std::string& character : kCharacters) {
+      const Character target =
+          character == "mixamo" ? mixamo_reference_character(45) : io::load_character(kAssets + "/characters/" + character);
+      const RetargetResult fast = retarget_fast(source, source_map, target, humanoid_bone_map(target.skeleton, character));
+      RefineOptions lagged = default_refine_options(Quality::balanced), free = lagged;
+      ASSERT_EQ(lagged.weights.pelvis_lag, 0.5);
+      free.weights.pelvis_lag = 0;
+      RetargetResult with_lag = fast, without = fast;
+      refine(with_lag, source, lagged);
+      refine(without, source, free);
+      const RetargetMetrics &a = with_lag.report.result_metrics, &b = without.report.result_metrics;
+      const double ratio = a.jitter / b.jitter;
+      std::printf("%s at %.0f fps: jitter %.2f m/s^2 with the lag, %.2f without (x%.3f); worst leg %.2f / %.2f deg; "
+                  "skate %.3f / %.3f\n",
+                  character.c_str(), fps, a.jitter, b.jitter, ratio, worst_leg_deg(with_lag), worst_leg_deg(without),
+                  a.foot_skate_ratio, b.foot_skate_ratio);
+      EXPECT_LT(ratio, 0.97) << character << " at " << fps << " fps";
+      EXPECT_GT(ratio, 0.8) << character << " at " << fps << " fps";
+      EXPECT_LT(worst_leg_deg(with_lag), worst_leg_deg(without) + 0.2) << character << " at " << fps << " fps";
+      EXPECT_LE(a.foot_skate_ratio, b.foot_skate_ratio + 0.01) << character << " at " << fps << " fps";
+    }
+  }
 }
 
 // RobotExpressive's feet hang from the root bone: the refined foot is where its shin ends. While

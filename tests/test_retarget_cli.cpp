@@ -250,7 +250,8 @@ TEST(RetargetCliTest, BalancedQualityRefines) {
   EXPECT_EQ(report["settings"]["refine"]["weights"]["foot_contact"], 6.0);
   EXPECT_EQ(report["settings"]["refine"]["weights"]["pose"], 0.05);
   EXPECT_EQ(report["settings"]["refine"]["weights"]["pelvis_turn"], 1.0);
-  EXPECT_EQ(report["settings"]["refine"]["weights"].size(), 9u);
+  EXPECT_EQ(report["settings"]["refine"]["weights"]["pelvis_lag"], 0.5);
+  EXPECT_EQ(report["settings"]["refine"]["weights"].size(), 10u);
   EXPECT_GT(report["refine"]["frames"].get<int>(), 0);
   EXPECT_LT(report["metrics"]["result"]["bone_direction_deg"]["mean"].get<double>(), 2.0);
   if (const std::string missing = validator_missing(); !missing.empty()) GTEST_SKIP() << missing;
