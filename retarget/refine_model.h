@@ -169,8 +169,8 @@ struct LimbFrame {
   Eigen::Vector3d pelvis_offset;  // dp's current value
   Eigen::Vector3d pelvis_prior;   // dp_plan(t)
   // balanced: the previous frame's solved dp carried onto this frame, dp(t-1) + dp_plan(t) -
-  // dp_plan(t-1), and the lag weight w_lag L sqrt(fps); the weight is 0 where no frame was solved
-  // before in the window, and in accurate's space-time problem.
+  // dp_plan(t-1), and the lag weight w_lag L sqrt(fps) on dp's horizontal change from it (refine.h);
+  // the weight is 0 on the first frame a window solves, and in accurate's space-time problem.
   Eigen::Vector3d pelvis_previous = Eigen::Vector3d::Zero();
   double pelvis_lag = 0;
   Eigen::Quaterniond pelvis_turn; // the turn's current value

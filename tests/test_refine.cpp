@@ -216,15 +216,13 @@ INSTANTIATE_TEST_SUITE_P(CmuWalk, RefineWalkTest,
                            return info.param.character.substr(0, info.param.character.find('.')) + "_" + quality_name(info.param.quality);
                          });
 
-// Accurate is smoother than balanced, and within the target of 1.1 times the source's
-// jitter on the humans. The robot's jitter is its forearms, which the transfer sets (fast has as
-// much), so there accurate is held to 1.1 times fast's.
-// Balanced's pelvis lag (refine.h) low-passes the root's horizontal correction frame by frame;
-// accurate smooths the corrections over the clip and follows the performer's accelerations more
-// closely, so on this walk at 120 fps the two are about as smooth: the Mixamo test rig 29.2 m/s^2
-// at balanced against 30.1 at accurate and the source's 30.3 (at 30 fps accurate is the smoother
-// on every shared humanoid and clip: README). Accurate may be up to 4% rougher than balanced and
-// stays within 1.1 times the source's.
+// Accurate is within the target of 1.1 times the source's jitter on the humans. The
+// robot's jitter is its forearms, which the transfer sets (fast has as much), so there accurate is
+// held to 1.1 times fast's. Balanced's pelvis lag (refine.h) low-passes the root's horizontal
+// correction frame by frame, while accurate follows the performer's accelerations more closely:
+// on this walk at 120 fps the two are about as smooth (the Mixamo test rig 29.2 m/s^2 at balanced,
+// 30.1 at accurate, the source's 30.3; at 30 fps accurate is the smoother on every shared
+// humanoid and clip: README). Accurate may be up to 4% rougher than balanced.
 TEST(RefineTest, AccurateIsAsSmoothAsBalancedWithinFourPercent) {
   for (const std::string& character : kCharacters) {
     const RetargetReport& report = refined_by_default(character, Quality::balanced).report;
