@@ -135,8 +135,8 @@
 //   read the upper body's unknowns (directions and offsets from the pelvis), so that split is
 //   exact; the spine is solved before the arms without their end-effector terms. Each frame
 //   warm-starts from the previous one (its corrections q_ref^-1 q, dp - dp_plan and the turn
-//   carried onto this frame); the first frame of each window of `window_frames` starts from the
-//   reference.
+//   carried onto this frame); each window of `window_frames` starts from the reference, at its
+//   first frame or, with the lag, 0.25 s before it (those frames are solved and discarded).
 // - accurate: the balanced solution, then the lower body as a space-time problem: one
 //   ceres::Problem over every frame's dp and leg rotations (EigenQuaternionManifold) of a span of
 //   up to `span_frames` frames (the whole of most clips), with the limb residuals and the

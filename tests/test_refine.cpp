@@ -378,9 +378,9 @@ TEST(RefineTest, ContactLiftKeepsPlantedFeetWithinItsBound) {
 
 // The pelvis lag (refine.h) makes the frame-by-frame solve an exponential smoother of the pelvis
 // correction whose time constant is the same in seconds at any frame rate: at 120 fps (the walk as
-// recorded) and resampled to 30, it lowers the jitter of every character by 3-7 percent, bends
-// no leg more than 0.2 degrees further and does not add skate. The second-order form it replaced
-// (against 2 c(t-1) - c(t-2)) rang at 120 fps, doubling the jitter.
+// recorded) and resampled to 30, it lowers the jitter of every character by 3-7 percent (at least
+// 2 asserted), bends no leg more than 0.2 degrees further and does not add skate. The
+// second-order form tried first (against 2 c(t-1) - c(t-2)) rang at 120 fps, doubling the jitter.
 TEST(RefineTest, PelvisLagSmoothsAtAnyFrameRate) {
   const BoneMap source_map = humanoid_bone_map(shared().source.skeleton, "walk");
   for (const double fps : {120.0, 30.0}) {
@@ -401,7 +401,7 @@ TEST(RefineTest, PelvisLagSmoothsAtAnyFrameRate) {
                   "skate %.3f / %.3f\n",
                   character.c_str(), fps, a.jitter, b.jitter, ratio, worst_leg_deg(with_lag), worst_leg_deg(without),
                   a.foot_skate_ratio, b.foot_skate_ratio);
-      EXPECT_LT(ratio, 0.97) << character << " at " << fps << " fps";
+      EXPECT_LT(ratio, 0.98) << character << " at " << fps << " fps";
       EXPECT_GT(ratio, 0.8) << character << " at " << fps << " fps";
       EXPECT_LT(worst_leg_deg(with_lag), worst_leg_deg(without) + 0.2) << character << " at " << fps << " fps";
       EXPECT_LE(a.foot_skate_ratio, b.foot_skate_ratio + 0.01) << character << " at " << fps << " fps";
@@ -564,6 +564,11 @@ TEST(RefineModelTest, LimbJacobiansMatchFiniteDifferencesOfTheWholePose) {
     builder.reference_pose(pose);
     pose.pelvis_offset = plan.pelvis_offset[150] + Vector3d(0.01, -0.02, 0.005);
     pose.pelvis_turn = Eigen::AngleAxisd(0.05, Vector3d(1, 2, 3).normalized());
+    // The balanced lag term, as balanced_pass sets it: held against a previous dp 1 cm away.
+    const auto with_lag = [&](refinement::LimbFrame& frame) {
+      frame.pelvis_previous = pose.pelvis_offset + Vector3d(0.01, 0.005, -0.002);
+      frame.pelvis_lag = 3.0;
+    };
     for (const refinement::Limb& limb : model.limbs) {
       const int owned = limb.owned, parameters = 4 * owned + (limb.moves_pelvis ? 7 : 0);
       ASSERT_LE(parameters, kMaxParameters);
@@ -579,6 +584,7 @@ TEST(RefineModelTest, LimbJacobiansMatchFiniteDifferencesOfTheWholePose) {
         }
         refinement::LimbFrame frame;
         builder.fill(limb, moved, plan, frame);
+        with_lag(frame);
         refinement::LimbWork<double> work(limb);
         work.load(frame);
         std::vector<double> out(residuals);
@@ -587,6 +593,7 @@ TEST(RefineModelTest, LimbJacobiansMatchFiniteDifferencesOfTheWholePose) {
       };
       refinement::LimbFrame frame;
       builder.fill(limb, pose, plan, frame);
+      with_lag(frame);
       refinement::LimbWork<Jet> work(limb);
       work.load(frame);
       for (int s = 0; s < owned; ++s) {
