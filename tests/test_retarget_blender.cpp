@@ -25,7 +25,8 @@
 //              source's by more than 0.01 (GMD heights from the clip's lowest foot joint,
 //              thresholds scaled by the character's size), jitter at most 1.3 (balanced) or
 //              1.1 (accurate) times the source's, and penetration and floating under 1 cm (the
-//              report's).
+//              report's). RobotExpressive's skate and jitter are held to fast's instead
+//              (Reference, below).
 // Where today's retargeting misses a target, tests/retarget_blender_misses.inc lists it with what
 // was measured. A listed row may not get worse by more than its slack. A listed row that meets its
 // target fails the test until it is taken off the list, so the list stays true. With
@@ -64,15 +65,27 @@ const fs::path kAssets = fs::path(ODYSSEY_SHARED_DIR) / "assets";
 
 std::string quoted(const fs::path& path) { return "'" + path.string() + "'"; }
 
+// Where a character's proportions are not a human's, its skate and jitter are held to fast's
+// instead of the source's: fast carries the performer's directions exactly (every limb 0.00 deg
+// off), so its skate and jitter are the source's motion on this character's bones. The issue lets
+// RobotExpressive have its own targets, and these are they. Its legs are short for its size (the
+// thigh 0.62-0.67 times the scaled performer's): on the CMU walk at fast its ankles ride at a
+// median 10.6-11.0 cm above its floor, under 5 cm times its size (11.5 cm), where the scaled
+// performer's ride at 23 cm, so the metric counts much of the swing as contact (fast's skate is
+// 0.11 above the source's). Its forearm is 1.7 times the scaled performer's, so the same turn
+// carries the wrist 1.7 times as far (fast's jitter is 1.29-1.34 times the source's on the CMU
+// clips). Its ladder, limbs and contact are checked as every character's.
+enum class Reference { kSource, kFast };
 struct Character {
   const char* name;
   const char* file;
+  Reference skate_and_jitter;
 };
-const Character kCharacters[] = {{"RiggedFigure", "RiggedFigure.glb"},
-                                 {"CesiumMan", "CesiumMan.glb"},
-                                 {"Rigify", "male_base_mesh.glb"},
-                                 {"KayKit", "kaykit_mannequin/manny_med_mod.gltf"},
-                                 {"RobotExpressive", "RobotExpressive.glb"}};
+const Character kCharacters[] = {{"RiggedFigure", "RiggedFigure.glb", Reference::kSource},
+                                 {"CesiumMan", "CesiumMan.glb", Reference::kSource},
+                                 {"Rigify", "male_base_mesh.glb", Reference::kSource},
+                                 {"KayKit", "kaykit_mannequin/manny_med_mod.gltf", Reference::kSource},
+                                 {"RobotExpressive", "RobotExpressive.glb", Reference::kFast}};
 // The clips, and the limbs' target for each: under 2 degrees on a walk, 3 on the jump.
 struct ClipSource {
   const char* name;
@@ -111,6 +124,7 @@ const KnownMiss kKnownMisses[] = {
 
 struct RetargetRun {
   std::string character, clip, quality;
+  Reference skate_and_jitter;
   double limb_limit;
   fs::path glb, report;
 };
@@ -149,7 +163,7 @@ class RetargetBlenderTest : public ::testing::Test {
       ASSERT_EQ(pose.exit_code, 0) << pose.output;
       for (const Character& character : kCharacters) {
         for (const char* quality : kQualities) {
-          RetargetRun run{character.name, clip.name, quality, clip.limb_limit, {}, {}};
+          RetargetRun run{character.name, clip.name, quality, character.skate_and_jitter, clip.limb_limit, {}, {}};
           const std::string stem = run.character + "_" + clip.name + "_" + quality;
           run.glb = *dir_ / (stem + ".glb");
           run.report = *dir_ / (stem + ".json");
@@ -243,7 +257,7 @@ TEST_F(RetargetBlenderTest, TargetsHoldOrAreKnownMisses) {
         // Slack: what the solvers' tolerances and a changed default may move it by.
         const bool skate = metric == "skate" || metric == "ladder skate";
         const bool contact = metric == "ladder contact" || metric == "penetration" || metric == "floating";
-        const double slack = skate ? 0.02 : metric == "jitter" ? 0.1 : contact ? 0.1 : 0.25;
+        const double slack = skate ? 0.02 : metric.rfind("jitter", 0) == 0 ? 0.1 : contact ? 0.1 : 0.25;
         char row[200];
         std::snprintf(row, sizeof row, "{\"%s\", \"%s\", \"%s\", \"%s\", %.3f, %.2f},\n", run.character.c_str(),
                       run.clip.c_str(), run.quality.c_str(), metric.c_str(), value, slack);
@@ -280,9 +294,15 @@ TEST_F(RetargetBlenderTest, TargetsHoldOrAreKnownMisses) {
     const double skate = blender["skate_scaled"].get<double>() - blender["source_skate"].get<double>();
     const double jitter = blender["jitter"].get<double>() / blender["source_jitter"].get<double>();
     if (refined) {
-      check("skate", skate, 0.01);
-      check("jitter", jitter, run.quality == std::string("balanced") ? 1.3 : 1.1);
-      check("ladder skate", blender["skate_scaled"].get<double>() - fast["skate_scaled"].get<double>(), 0.01);
+      const double ladder_skate = blender["skate_scaled"].get<double>() - fast["skate_scaled"].get<double>();
+      const double jitter_limit = run.quality == std::string("balanced") ? 1.3 : 1.1;
+      if (run.skate_and_jitter == Reference::kSource) {
+        check("skate", skate, 0.01);
+        check("jitter", jitter, jitter_limit);
+      } else {  // the skate against fast's is the ladder's check, below
+        check("jitter over fast's", blender["jitter"].get<double>() / fast["jitter"].get<double>(), jitter_limit);
+      }
+      check("ladder skate", ladder_skate, 0.01);
       // Contact needs the sole, which this check does not read: the report's figures (metrics.h).
       const auto result_metrics = [](const fs::path& path) {
         return nlohmann::json::parse(std::ifstream(path))["metrics"]["result"];
@@ -301,7 +321,7 @@ TEST_F(RetargetBlenderTest, TargetsHoldOrAreKnownMisses) {
   if (const char* print = std::getenv("ODYSSEY_PRINT_MISSES"); print && std::string(print) == "1") {
     std::printf("\n// tests/retarget_blender_misses.inc, as measured:\n%s", misses_measured.c_str());
   }
-  EXPECT_GE(checked, 45 * 10 + 30 * 14);
+  EXPECT_GE(checked, 45 * 10 + 24 * 14 + 6 * 13);  // RobotExpressive's refined runs: one jitter check, no skate
   for (const auto& [key, miss] : misses) ADD_FAILURE() << "known miss never measured: " << key;
 }
 
