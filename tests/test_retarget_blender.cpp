@@ -18,7 +18,10 @@
 //   ladder     the issue's item 1: at balanced and accurate, no limb's mean direction error more
 //              than 0.5 degrees above fast's, nor the hip line's (kHipLine), the skate no more
 //              than 0.01 above fast's, and penetration plus floating (the report's, which reads
-//              the sole) below fast's.
+//              the sole) below fast's. The skate is compared twice: each file from its own
+//              lowest foot joint (GMD), and all three from the lowest of the three ("shared
+//              floor"). Fast's feet sink up to 3.6 cm below the floor where the refined ones do
+//              not, which lowers fast's own floor and hides its sliding from the first.
 //   targets    the issue's, per limb (thigh, shin, upper arm, forearm, spine, chest to neck,
 //              neck): a mean direction error under 2 degrees on the walk and 3 on the jump, at
 //              every quality. At balanced and accurate also: a skate ratio no worse than the
@@ -189,7 +192,8 @@ class RetargetBlenderTest : public ::testing::Test {
                           {"levelling_wxyz", report["source"]["levelling"]["quaternion_wxyz"]},
                           {"map", report["map"]},
                           {"limbs", limbs},
-                          {"feet", {"left_ankle", "left_foot", "right_ankle", "right_foot"}}});
+                          {"feet", {"left_ankle", "left_foot", "right_ankle", "right_foot"}},
+                          {"floor_group", run.character + " " + run.clip}});
           runs_->push_back(run);
         }
       }
@@ -255,7 +259,7 @@ TEST_F(RetargetBlenderTest, TargetsHoldOrAreKnownMisses) {
       ++checked;
       if (value > limit) {
         // Slack: what the solvers' tolerances and a changed default may move it by.
-        const bool skate = metric == "skate" || metric == "ladder skate";
+        const bool skate = metric.find("skate") != std::string::npos;
         const bool contact = metric == "ladder contact" || metric == "penetration" || metric == "floating";
         const double slack = skate ? 0.02 : metric.rfind("jitter", 0) == 0 ? 0.1 : contact ? 0.1 : 0.25;
         char row[200];
@@ -303,6 +307,8 @@ TEST_F(RetargetBlenderTest, TargetsHoldOrAreKnownMisses) {
         check("jitter over fast's", blender["jitter"].get<double>() / fast["jitter"].get<double>(), jitter_limit);
       }
       check("ladder skate", ladder_skate, 0.01);
+      check("ladder skate shared floor",
+            blender["skate_shared_floor"].get<double>() - fast["skate_shared_floor"].get<double>(), 0.01);
       // Contact needs the sole, which this check does not read: the report's figures (metrics.h).
       const auto result_metrics = [](const fs::path& path) {
         return nlohmann::json::parse(std::ifstream(path))["metrics"]["result"];
@@ -321,7 +327,7 @@ TEST_F(RetargetBlenderTest, TargetsHoldOrAreKnownMisses) {
   if (const char* print = std::getenv("ODYSSEY_PRINT_MISSES"); print && std::string(print) == "1") {
     std::printf("\n// tests/retarget_blender_misses.inc, as measured:\n%s", misses_measured.c_str());
   }
-  EXPECT_GE(checked, 45 * 10 + 24 * 14 + 6 * 13);  // RobotExpressive's refined runs: one jitter check, no skate
+  EXPECT_GE(checked, 45 * 10 + 24 * 15 + 6 * 14);  // RobotExpressive's refined runs: one jitter check, no skate
   for (const auto& [key, miss] : misses) ADD_FAILURE() << "known miss never measured: " << key;
 }
 

@@ -11,6 +11,10 @@
 #                          horizontally; heights from the clip's lowest foot-joint height (GMD).
 #                          "scaled": h = 5 cm * s, v = 0.5 m/s * s (s = the character's size over the
 #                          performer's); "gmd": 5 cm and 0.5 m/s; the source's at s = 1;
+#                          "shared floor": scaled, with heights from the lowest foot-joint
+#                          height of all the jobs of one "floor_group" (the same character and
+#                          clip at every quality), so that a file whose feet sink below the
+#                          floor does not lower its own floor and hide its sliding;
 #   jitter                 the mean over joints and frames of |x[t+1] - 2 x[t] + x[t-1]| * fps^2 over
 #                          the mapped joints (m/s^2), the target's, and the source's times s (the
 #                          performer at the character's size, so the ratio compares like with like).
@@ -18,9 +22,9 @@
 #   blender -b --factory-startup --python measure_retarget.py -- --jobs jobs.json --out out.json
 #
 # jobs.json: [{"glb", "source_npz", "fps", "scale", "levelling_wxyz", "map": [{"canonical", "source", "target"}],
-# "limbs": {limb: [[parent canonical, child canonical], ...]}, "feet": [canonical, ...]}].
+# "limbs": {limb: [[parent canonical, child canonical], ...]}, "feet": [canonical, ...], "floor_group"}].
 # Output: one entry per job: {"frames", "limbs": {limb: mean deg}, "limbs_raw", "skate_scaled",
-# "skate_gmd", "source_skate", "jitter", "source_jitter"}. Both worlds are Z up (Blender converts
+# "skate_gmd", "skate_shared_floor", "source_skate", "jitter", "source_jitter"}. Both worlds are Z up (Blender converts
 # glTF's Y up). The source is compared levelled by the report's rotation (limbs, skate, jitter),
 # and as recorded (limbs_raw).
 import json
@@ -87,8 +91,8 @@ def directions(positions, pairs):
     return vectors / numpy.linalg.norm(vectors, axis=2, keepdims=True)
 
 
-def skate_ratio(feet, fps, height_m, speed_m_s):
-    heights = feet[:, :, 2] - feet[:, :, 2].min()
+def skate_ratio(feet, fps, height_m, speed_m_s, floor=None):
+    heights = feet[:, :, 2] - (feet[:, :, 2].min() if floor is None else floor)
     low = (heights[1:] < height_m) & (heights[:-1] < height_m)
     speed = numpy.linalg.norm(feet[1:, :, :2] - feet[:-1, :, :2], axis=2) * fps
     return float(numpy.mean(low & (speed > speed_m_s)))
@@ -123,6 +127,7 @@ def measure(job):
     feet = [canonical[name] for name in job["feet"] if name in canonical]
     result["skate_scaled"] = skate_ratio(target[:, feet], fps, 0.05 * scale, 0.5 * scale)
     result["skate_gmd"] = skate_ratio(target[:, feet], fps, 0.05, 0.5)
+    result["feet"] = target[:, feet]  # for the shared floor, once every job is measured
     result["source_skate"] = skate_ratio(src[:, feet], fps, 0.05, 0.5)
     result["jitter"] = jitter(target, fps)
     result["source_jitter"] = jitter(src, fps) * scale  # the performer at the character's size
@@ -138,6 +143,15 @@ def main():
             results.append(measure(job))
         except Exception:
             results.append({"error": traceback.format_exc()})
+    floors = {}
+    for job, result in zip(jobs, results):
+        if "feet" in result:
+            group = job["floor_group"]
+            floors[group] = min(floors.get(group, numpy.inf), float(result["feet"][:, :, 2].min()))
+    for job, result in zip(jobs, results):
+        if "feet" in result:
+            feet, scale = result.pop("feet"), job["scale"]
+            result["skate_shared_floor"] = skate_ratio(feet, job["fps"], 0.05 * scale, 0.5 * scale, floors[job["floor_group"]])
     with open(args["out"], "w") as out:
         json.dump(results, out)
 
