@@ -464,10 +464,16 @@ class SpaceTimePass {
     ceres::Problem problem(problem_options);
     add_limb_costs(problem, first, end);
     add_smoothness(problem, std::max(0, first - 2), end);
+    // The held frames enter only through the smoothness terms: a block no term reads (a weight
+    // of 0) is not in the problem.
+    const auto frame_blocks = [&](int f) {
+      std::vector<double*> blocks = {offset_[f].data(), turn_[f].coeffs().data()};
+      for (int s = 0; s < limb_.owned; ++s) blocks.push_back(slot(f, s).coeffs().data());
+      std::erase_if(blocks, [&](double* block) { return !problem.HasParameterBlock(block); });
+      return blocks;
+    };
     for (int f = std::max(0, first - 2); f < first; ++f) {
-      problem.SetParameterBlockConstant(offset_[f].data());
-      problem.SetParameterBlockConstant(turn_[f].coeffs().data());
-      for (int s = 0; s < limb_.owned; ++s) problem.SetParameterBlockConstant(slot(f, s).coeffs().data());
+      for (double* block : frame_blocks(f)) problem.SetParameterBlockConstant(block);
     }
     // Eliminated frame by frame, in time order: the normal equations are banded in time (the
     // second differences reach two frames), so this ordering fills nothing outside the band.
@@ -475,9 +481,7 @@ class SpaceTimePass {
     ceres::Solver::Options options = solver_options_;
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     for (int f = std::max(0, first - 2); f < end; ++f) {
-      ordering->AddElementToGroup(offset_[f].data(), f);
-      ordering->AddElementToGroup(turn_[f].coeffs().data(), f);
-      for (int s = 0; s < limb_.owned; ++s) ordering->AddElementToGroup(slot(f, s).coeffs().data(), f);
+      for (double* block : frame_blocks(f)) ordering->AddElementToGroup(block, f);
     }
     options.linear_solver_ordering = ordering;
     ceres::Solver::Summary summary;

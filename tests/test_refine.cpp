@@ -316,6 +316,25 @@ TEST(RefineTest, AccurateSpansMeetWithoutASeam) {
   }
 }
 
+// Without smoothness terms the held frames before a span are in no residual, so there is nothing
+// to hold: Ceres aborted the process when asked to (`--weights smoothness=0,pelvis_smoothness=0` on
+// a clip longer than a span). Nothing then couples the frames, so cutting spans changes nothing.
+TEST(RefineTest, AccurateSpansWithoutSmoothnessAreTheWholeClip) {
+  RefineOptions options = default_refine_options(Quality::accurate);
+  options.weights.smoothness = 0;
+  options.weights.pelvis_smoothness = 0;
+  options.span_iterations = 200;
+  RefineOptions whole_clip = options;
+  options.span_frames = 100;
+  RefineSummary summary;
+  const Clip whole = refined("RiggedFigure.glb", whole_clip).transfer.clip;
+  const Clip spans = refined("RiggedFigure.glb", options, &summary).transfer.clip;
+  EXPECT_EQ(summary.spans, 4);
+  const auto [distance, angle] = clip_difference(whole, spans);
+  EXPECT_LT(distance, 1e-6);
+  EXPECT_LT(angle, 1e-6);
+}
+
 // With both feet planted, a character whose hip width and leg length are not the performer's in
 // one ratio cannot stand both feet on the floor with both legs along the performer's. The pelvis
 // turns (rolls the hips) rather than bending a near-straight leg: held still (a turn weight of
