@@ -630,7 +630,7 @@ RefineOptions default_refine_options(Quality quality) {
   options.quality = quality;
   if (quality == Quality::accurate) {
     options.weights.foot_contact = 12;
-    options.weights.smoothness = 0.0005;
+    options.weights.smoothness = 0.0001;
     options.weights.pelvis_smoothness = 0.01;
     options.weights.pelvis_lag = 0;
   }

@@ -221,7 +221,7 @@ INSTANTIATE_TEST_SUITE_P(CmuWalk, RefineWalkTest,
 // held to 1.1 times fast's. Balanced's pelvis lag (refine.h) low-passes the root's horizontal
 // correction frame by frame, while accurate follows the performer's accelerations more closely:
 // on this walk at 120 fps the two are about as smooth (the Mixamo test rig 29.2 m/s^2 at balanced,
-// 30.1 at accurate, the source's 30.3; at 30 fps accurate is the smoother on every shared
+// 30.3 at accurate, the source's 30.3; at 30 fps accurate is the smoother on every shared
 // humanoid and clip: README). Accurate may be up to 4% rougher than balanced.
 TEST(RefineTest, AccurateIsAsSmoothAsBalancedWithinFourPercent) {
   for (const std::string& character : kCharacters) {
