@@ -209,8 +209,9 @@ struct RefineOptions {
 //   and slide 1.1 cm a frame on the CMU walk), smoothness 0.0001 per rad/s^2 and pelvis
 //   smoothness 0.01 per m/s^2, spans of 1,024 frames with 32 frames of lookahead. The rotation
 //   smoothness fights the contacts: a planted foot's correction must cancel the performer's leg
-//   noise, whose acceleration grows with the frame rate squared. At 0.0005 accurate was smoother
-//   than at 0.0001 by under 1% at 30 fps and rougher by 0.4-7% at 120 fps (README).
+//   noise, whose acceleration grows with the frame rate squared. On the shared humanoids at
+//   0.0005, accurate was within 1% of its jitter at 0.0001 at 30 fps and 0.4-7% rougher at
+//   120 fps (README).
 RefineOptions default_refine_options(Quality quality);
 
 // The weights by the names that command lines, scene files and reports use ("bone_direction",

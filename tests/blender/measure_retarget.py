@@ -22,11 +22,12 @@
 #   blender -b --factory-startup --python measure_retarget.py -- --jobs jobs.json --out out.json
 #
 # jobs.json: [{"glb", "source_npz", "fps", "scale", "levelling_wxyz", "map": [{"canonical", "source", "target"}],
-# "limbs": {limb: [[parent canonical, child canonical], ...]}, "feet": [canonical, ...], "floor_group"}].
+# "limbs": {limb: [[parent canonical, child canonical], ...]}, "feet": [canonical, ...],
+# "floor_group"}].
 # Output: one entry per job: {"frames", "limbs": {limb: mean deg}, "limbs_raw", "skate_scaled",
-# "skate_gmd", "skate_shared_floor", "source_skate", "jitter", "source_jitter"}. Both worlds are Z up (Blender converts
-# glTF's Y up). The source is compared levelled by the report's rotation (limbs, skate, jitter),
-# and as recorded (limbs_raw).
+# "skate_gmd", "skate_shared_floor", "source_skate", "jitter", "source_jitter"}. Both worlds are
+# Z up (Blender converts glTF's Y up). The source is compared levelled by the report's rotation
+# (limbs, skate, jitter), and as recorded (limbs_raw).
 import json
 import sys
 import traceback
