@@ -12,6 +12,15 @@ namespace odyssey::cli {
 namespace {
 
 // "foot_contact=50,pose=0.1" over the quality's defaults.
+// "bone_direction, end_effector, ...": the weights' names as refine.h lists them.
+std::string weight_names() {
+  std::string names;
+  for (const retarget::RefineWeightName& entry : retarget::refine_weight_names()) {
+    names += std::string(names.empty() ? "" : ", ") + entry.name;
+  }
+  return names;
+}
+
 void apply_weights(const std::string& text, retarget::RefineWeights& weights) {
   std::size_t at = 0;
   while (at <= text.size()) {
@@ -21,13 +30,7 @@ void apply_weights(const std::string& text, retarget::RefineWeights& weights) {
     if (equals == std::string::npos) throw UsageError("--weights expects NAME=VALUE items, got '" + item + "'");
     const std::string name = item.substr(0, equals);
     double* weight = retarget::refine_weight(weights, name);
-    if (!weight) {
-      std::string names;
-      for (const retarget::RefineWeightName& entry : retarget::refine_weight_names()) {
-        names += std::string(names.empty() ? "" : ", ") + entry.name;
-      }
-      throw UsageError("--weights: unknown weight '" + name + "' (weights: " + names + ")");
-    }
+    if (!weight) throw UsageError("--weights: unknown weight '" + name + "' (weights: " + weight_names() + ")");
     double value = 0;
     std::size_t used = 0;
     try {
@@ -154,10 +157,8 @@ void add_retarget_settings(Args& args) {
               "(the clip's first frame; CMU BVH files open with a T-pose there)",
               "rest")
       .option("weights", "LIST",
-              "refinement weights over the quality's defaults, NAME=VALUE separated by commas; names: "
-              "bone_direction, end_effector, foot_contact, floor, pose, pelvis, pelvis_turn, smoothness, pelvis_smoothness, "
-              "pelvis_lag "
-              "(defaults and units: README, retargeting conventions)")
+              "refinement weights over the quality's defaults, NAME=VALUE separated by commas; names: " + weight_names() +
+                  " (defaults and units: README, retargeting conventions)")
       .option("contact-lift", "M|off",
               "let a planted foot joint rise with the performer's once the performer's is more than M metres above "
               "its ground (at the performer's size; the legs bend less at toe-off, the foot leaves the floor earlier; "
