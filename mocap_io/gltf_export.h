@@ -12,25 +12,23 @@
 // so interpolation between frames takes the short way. Joint nodes written as a `matrix` are
 // rewritten as translation, rotation and scale (glTF animates only TRS nodes); a matrix with
 // shear cannot be, and is rejected. Static node scale stays on the nodes.
-// All data goes into one buffer, the GLB's binary chunk, and every buffer view is written afresh,
-// whatever the input's layout: each accessor with data gets a view of its own with its elements
-// tightly packed and its sparse substitutions applied (no sparse storage is written), views of
-// vertex attributes and indices carry their target, and only a vertex attribute whose elements
-// are not a multiple of 4 bytes has a byteStride (padding each element to 4 bytes, as glTF
-// requires). Images, external or data-URI, are embedded as views of their own (their MIME type
-// read from their magic bytes); accessors nothing refers to any more (the old animations'),
-// buffer views and buffers are dropped.
-// Accessor min/max are recomputed from the data wherever declared (and on every POSITION, which
-// must declare them), since exporters often get them slightly wrong and the validator counts a
-// mismatch as an error.
+// All data goes into one buffer, the GLB's binary chunk, and every buffer view is written afresh:
+// each accessor with data gets a view of its own, tightly packed, with its sparse substitutions
+// applied (no sparse storage is written); views of vertex attributes and indices carry their
+// target, and only a vertex attribute whose elements are not a multiple of 4 bytes has a
+// byteStride (each element padded to 4 bytes, as glTF requires). Images, external or data-URI,
+// are embedded as views of their own (MIME type from their magic bytes); accessors, views and
+// buffers nothing refers to any more (the old animations') are dropped. Accessor min/max are
+// recomputed from the data wherever declared (and on every POSITION, which must declare them):
+// exporters often get them slightly wrong, and the validator counts a mismatch as an error.
 // Files using extensions whose payload refers to accessors or buffer views (Draco, meshopt, GPU
 // instancing) are rejected: their references could not be renumbered. Like load_character(), the
 // writer refuses JSON nested deeper than kMaxGltfJsonDepth and decodes at most
 // gltf_decode_budget() bytes of the file's accessors (data it makes itself counts as input).
 //
 // Skin weights. The validator requires the weights of a vertex, over all WEIGHTS_n sets, to sum
-// to 1 within 2e-7 per non-zero weight (summed in float32); exporters often store quantised or
-// unnormalised weights that miss this. Every WEIGHTS_n accessor is therefore rewritten as float32:
+// to 1 within 2e-7 per non-zero weight (summed in float32), which quantised or unnormalised
+// weights miss. Every WEIGHTS_n accessor is therefore rewritten as float32:
 // weights of one joint listed twice are merged into its first slot (a repeated joint with
 // non-zero weight is an error too), all are divided by their sum, and the largest takes
 // 1 - (sum of the others), so the stored floats sum to 1 to float rounding. A vertex whose weights
@@ -57,8 +55,7 @@
 //   the exact L'(n) is A_m^-1 R_m (Q Qr^-1) R_m^T A_m R(r_n) S(sigma_n), which no rotation
 //   reaches. Writing A_m = s_m R_m (I + E) with E small and symmetric, it differs from the
 //   rotation above by a symmetric stretch of order |E| (the first-order correction is
-//   symmetric), so r'_n is also the best rotation to first order. The loader bounds |E| by 1e-3;
-//   RobotExpressive's legs carry 1.6e-5, which moves its posed joints by up to 2e-6 of its size.
+//   symmetric), so r'_n is also the best rotation to first order. The loader bounds |E| by 1e-3.
 // * A root joint j on node n, below nodes that are not joints (their transforms folded into the
 //   root's rest) with world F = [A_F | t_F], A_F = s_F R_F (F = identity when n is a root node):
 //     L'(n) = F^-1 G'(n),  G'(n) = [ C^-1 Q_j R_n^T A_n | C^-1 o_j ],  A_n = A_F R(r_n) S(sigma_n)
@@ -103,9 +100,9 @@
 // (CameraPath::validate), has another frame count or fps than the clip, or changes its
 // intrinsics; a character that does not come from the file (its joints' nodes or rest positions
 // disagree with it), a file that cannot be read or carried over, or an output that cannot be
-// written throws InputError naming the file. Everything is
-// built in memory first and written to a temporary file beside out_path that is renamed onto it
-// when complete: on any failure nothing appears at out_path (an existing file there stays).
+// written throws InputError naming the file. Everything is built in memory first and written to a
+// temporary file beside out_path that is renamed onto it when complete: on any failure nothing
+// appears at out_path (an existing file there stays).
 #pragma once
 
 #include <string>

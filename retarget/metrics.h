@@ -40,8 +40,9 @@
 // first joint to the front point (dz its rise, L its length) and pitch_flat the same with both
 // points at their ground heights: how far the foot is turned, heel or toe up, from standing flat.
 // The performer's comes from heel strikes and toe-offs. A rig whose ball joint sits elsewhere on
-// the sole than the performer's stood tilted, toes up, while the foot segment followed the
-// performer's direction (up to 48 degrees; README, "Retargeting conventions", feet).
+// the sole than the performer's would stand tilted, toes up, if its foot segment followed the
+// performer's direction, which is why the transfer pitches feet to the floor (transfer.h;
+// docs/retargeting.md, feet).
 // Jitter, m/s^2: the mean over frames 1..T-2 and paired joints of
 //   | p(t+1) - 2 p(t) + p(t-1) | fps^2.
 //

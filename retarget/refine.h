@@ -1,6 +1,7 @@
 // Refinement of a transferred clip with Ceres: qualities `balanced` (frame by frame) and
 // `accurate` (space-time). It starts from a RetargetResult of quality `fast` (retarget.h),
 // the reference below, and replaces result.transfer.clip and result.report.result_metrics.
+// What the options do for a user, and what they trade, is in docs/retargeting.md.
 //
 // Unknowns. Per frame: the local rotation q_j of every target joint that starts a chain bone of
 // the body (rig.h: a non-degenerate segment whose start starts no other; hips, knees, ankles,
@@ -8,15 +9,14 @@
 // of the pelvis in world (the root's translation moves by dp), and a turn r of the pelvis (its
 // world rotation is the reference's times r). The turn lets the hips roll level when both feet
 // are planted: a rig whose hip width and leg length are not the performer's in one ratio would
-// otherwise bend a near-straight leg to plant its second foot (5-13 degrees on the KayKit
-// mannequin's and RobotExpressive's CMU jump). Other branch joints (a chest with neck and
-// shoulders) keep the transferred rotation; so do fingers, the
-// head's children and every unmapped joint (they ride on their parents). Joints the transfer
-// places rigidly with another (followers, a thumb hung from the forearm: transfer.h) move with it
-// again. IK-style effectors (a detached segment's end outside the pelvis's subtree, as
-// RobotExpressive's feet under the root bone) are not placed where the transfer put them (the
-// scaled source ankle, up to 54 cm from the robot's shin) but at the end of their segment, the
-// rest chord carried by the start joint (the knee): positions drive the leg that carries them.
+// otherwise bend a near-straight leg to plant its second foot. Other branch joints (a chest with
+// neck and shoulders) keep the transferred rotation; so do fingers, the head's children and every
+// unmapped joint (they ride on their parents). Joints the transfer places rigidly with another
+// (followers, a thumb hung from the forearm: transfer.h) move with it again. IK-style effectors
+// (a detached segment's end outside the pelvis's subtree, as RobotExpressive's feet under the
+// root bone) are not placed where the transfer put them (the scaled source ankle) but at the end
+// of their segment, the rest chord carried by the start joint (the knee): positions drive the leg
+// that carries them.
 //
 // Residuals of frame t (p_T, W_T: target world positions and rotations from forward kinematics
 // of the unknowns; p_S: the levelled source, contacts.h; s the rig's scale; q_ref, p_ref the
@@ -38,9 +38,8 @@
 //   pelvis turn      w_turn 2 vec( r ),  sign taken so the scalar part is >= 0
 //   (balanced) lag   w_lag L sqrt(fps) ( c(t) - c(t-1) ),  horizontal, c = dp - dp_plan, c(t-1)
 //                    the frame solved before; each window starts 0.25 s early (frames it
-//                    discards) so that its first frame's lag has settled: started cold, a
-//                    window's lag left the 100,000-frame tiled walk's tiles 0.25 mm apart
-//                    (tests/test_extremes.cpp holds them to 0.1 mm)
+//                    discards) so that its first frame's lag has settled and windows meet
+//                    without a step (tests/test_extremes.cpp)
 //   (accurate only)  w_smooth fps^2 ( c_j(t+1) - 2 c_j(t) + c_j(t-1) ),  c_j = q_ref,j^-1 q_j,
 //                    the leg joints' corrections and the turn r (quaternion components), and
 //                    w_pelvis_smooth L fps^2 ( dp(t+1) - 2 dp(t) + dp(t-1) ),
@@ -48,37 +47,20 @@
 //
 // A unit-vector difference is about the angle in radians: with w_dir = 1, a weight w on a
 // length term says that 1 m (of a 1.7 m character) costs as much as w radians of direction.
+// End effectors against the height-scaled source mostly measure how the rigs' proportions differ,
+// even with every bone exact, so the default keeps that term a tie-breaker. The contact weight
+// trades the legs against the floor where the rig's foot cannot follow both.
 //
-// What the weights trade, measured on the CMU walk (tests/test_refine.cpp). End effectors
-// against the height-scaled source mostly measure how the rigs' proportions differ (19 cm on
-// average for the Mixamo test rig, 76 cm for RobotExpressive, with every bone exact): at w_ee = 1
-// the Mixamo rig's arms turn 1.3 degrees for effectors 0.7 cm closer, so the default keeps the
-// term a tie-breaker. The contact weight trades the legs against the floor where the rig's foot
-// cannot follow both (measured when feet still followed the performer's foot segment, standing on
-// the heel with the ball 3.5-4.5 cm up, so that holding the heel down at toe-off bent both legs;
-// README, "Retargeting conventions", feet). On the CMU clips, the legs' mean error above the
-// transfer's, at balanced (accurate), with the planted feet's mean distance from the floor:
-// at w_foot 30 (100 at accurate) 0.4-0.75 (0.5-1.1) degrees, 0.01 cm; at 6 (12), the defaults,
-// 0.35-0.6 (0.45-0.75), 0.01-0.07 cm, every planted frame of the walk tests within 8 mm; at 2
-// (3) 0.2-0.35 (0.25-0.5), but planted feet lift 1.5-3 cm in the last frames of a contact.
-// RobotExpressive's jump, 0.7-1.0 at any of these, is the exception.
-// The lag. Solved frame by frame, dp is wherever this frame's contacts put it, and the reference's
-// planted feet slide a little each frame where the rigs' feet differ (at toe-off on Rigify's
-// SMPL-X walk the transferred toe moves 1.5 cm forward and 1.8 cm sideways in three frames), so
-// dp jumped 1-2 cm in two frames at each handoff: 5.0 m/s^2 mean root acceleration against fast's
-// 2.6 (3.8 with the lag, 3.1 at accurate). With a per-frame stiffness a of the other terms on dp,
-// the lag makes each frame's solution c(t) = alpha y(t) + (1 - alpha) c(t-1), y the lag-free
+// The lag. Solved frame by frame, dp is wherever this frame's contacts put it, and the
+// reference's planted feet slide a little each frame where the rigs' feet differ, so dp would
+// jump at each handoff between planted feet. With a per-frame stiffness a of the other terms on
+// dp, the lag makes each frame's solution c(t) = alpha y(t) + (1 - alpha) c(t-1), y the lag-free
 // solution: an exponential smoother with (1 - alpha) / alpha = w_lag^2 L^2 fps / a frames, a time
 // constant of about w_lag^2 L^2 / a seconds at any frame rate (hence sqrt(fps)). Horizontal only:
-// lagging the height lifted planted feet 1.1-1.7 cm off the floor on the CMU walk at 120 fps.
-// First order on purpose: the same term on the acceleration, against 2 c(t-1) - c(t-2), is an
-// underdamped second-order filter whose damping falls with the frame rate; at 120 fps it doubled
-// the jitter and bent the legs 4 degrees. Measured at w_lag 0.5 (the balanced default) on the
-// five shared humanoids, CMU walk and jump and the SMPL-X walk at 30 fps: jitter over the
-// source's 0.98-1.46 -> 0.93-1.37, the legs' mean error up by 0-0.15 degrees, skate within 0.004
-// (tests/test_refine.cpp holds it at 120 fps too). accurate's space-time problem smooths dp
-// itself, and its first pass runs without the lag by default (with it, the accurate results'
-// jitter ratios moved by at most 0.005 and their limbs by at most 0.01 degrees).
+// lagging the height would lift planted feet off the floor. First order on purpose: the same term
+// on the acceleration, against 2 c(t-1) - c(t-2), is an underdamped second-order filter whose
+// damping falls with the frame rate. accurate's space-time problem smooths dp itself, and its
+// first pass runs without the lag by default.
 //
 // Smoothing the corrections rather than the rotations themselves leaves the performer's motion
 // (and its capture noise) as it was: smoothing local rotations fights the capture, whose root
@@ -86,16 +68,12 @@
 // refinement adds (contacts switching, per-frame solves) is what is smoothed.
 //
 // The plan, fixed before solving (refine_model.h: plan_motion):
-// - Stride and height. The height ratio s scales the root's travel, but the target's legs need
-//   not be s times the source's (against the CMU walk's performer, the Mixamo test rig's are
-//   16% shorter, RiggedFigure's 21%, RobotExpressive's 20%): with every leg bone along the
-//   source's, a planted foot would slide by that share of each stride. The stride factor k is
-//   fitted so that moving the body by (k - 1) times the pelvis's horizontal travel best stills
-//   the reference's planted feet (least squares, ridge-regularised, within [0.5, 2]; reported in
-//   RefineSummary), and the height h is the median over planted frames of how far the support
-//   joint is from the floor; then
-//   dp_plan(t) = ((k - 1) (P_ref(t) - P_ref(0)) horizontally, h). The character covers k times
-//   the ground the transfer gave it, which is what its legs can walk (`fit_stride` off: k = 1).
+// - Stride and height. The target's legs need not be s times the source's, so with every leg
+//   bone along the source's a planted foot would slide by that share of each stride. The stride
+//   factor k is fitted so that moving the body by (k - 1) times the pelvis's horizontal travel
+//   best stills the reference's planted feet (least squares, ridge-regularised, within [0.5, 2]),
+//   and the height h is the median over planted frames of the support joint's height; then
+//   dp_plan(t) = ((k - 1) (P_ref(t) - P_ref(0)) horizontally, h) (`fit_stride` off: k = 1).
 // - Feet. Feet are the points contacts.h names (ankle, ball of the foot, the toe from the mesh)
 //   with the target's ground heights g_k; the floor is z = 0. During a source contact (a maximal
 //   run of planted frames) the foot's support point k(t), its lowest point in the reference
@@ -104,8 +82,7 @@
 //   it, shifted by the reference's vector between the two at that frame, so the foot rolls over
 //   the point that holds without a jump. The anchor is the mean over the whole contact of where
 //   the reference (moved by dp_plan) has the support point, each frame's shifted back to the
-//   first point by those switches: the least-squares anchor for the contact, not only for the
-//   heel's part of it. Around a contact the correction fades in and out over
+//   first point by those switches (the least-squares anchor). Around a contact the correction fades in and out over
 //   `contact_blend_seconds` (smoothstep u from 1 to 0): the boundary's support point is wanted at
 //   p_ref + u (dp_plan + o) + (1 - u) dp, passing from its anchor to moving with the body;
 //   contacts closer than two fades hand the correction from one to the next across the gap. The
@@ -113,27 +90,22 @@
 //   without a toe (no mesh to find it on) is held flat while planted (its rest rotation turned
 //   about z as the reference turns).
 // - Lift (`contact_lift` d, 3 cm by default). A performer's foot is planted while its lowest point
-//   is within 5 cm of the floor (contacts.h), and at toe-off the heel rises well before that ends
-//   (8 cm on the synthetic SMPL-X walk). Held on the floor through it, the target's heel bends
-//   both legs. With d set, the support joint k is wanted at g_k + s e(c_S(t) - d) instead of g_k:
-//   c_S the clearance of the performer's joint that k corresponds to (ankle, ball of the foot; a
-//   toe takes the ball's), s the rig's scale, e() a ramp eased over 2 cm (0 below -1 cm, x above
-//   +1 cm, (x + 1 cm)^2 / 4 cm between). Where the support passes to another joint, the height
-//   the old target implies for the new one, where it is above the new one's own, is carried to the
-//   end of the contact: the foot pivots on the new joint where it stands. It was made for feet
-//   that stood toes up, whose pinned heel bent both legs at toe-off (README, "Retargeting as
-//   Blender sees it"); with feet pitched to the floor (transfer.h) it changes the shared walks'
-//   legs by under 0.05 degrees (tests/test_refine.cpp).
+//   is within 5 cm of the floor (contacts.h), and at toe-off the heel rises well before that ends.
+//   Held on the floor through it, the target's heel would bend both legs. With d set, the support
+//   joint k is wanted at g_k + s e(c_S(t) - d) instead of g_k: c_S the clearance of the
+//   performer's joint that k corresponds to (ankle, ball of the foot; a toe takes the ball's), s
+//   the rig's scale, e() a ramp eased over 2 cm (0 below -1 cm, x above +1 cm, (x + 1 cm)^2 / 4 cm
+//   between). Where the support passes to another joint, the height the old target implies for the
+//   new one, where it is above the new one's own, is carried to the end of the contact: the foot
+//   pivots on the new joint where it stands.
 //
 // Solvers.
 // - balanced: frame by frame, one small problem per limb with ceres::TinySolver and automatic
-//   derivatives (ceres::TinySolverAutoDiffFunction, fixed parameter counts, buffers reused: no
-//   allocation per solve); rotations as q = q0 q(x), q(x) the rotation by the vector x, a chart of
-//   the unit quaternions at the starting rotation q0 as EigenQuaternionManifold's Plus is. The
-//   lower body (dp, the turn and both legs, up to 24 unknowns) first, then the spine (its chain
-//   joints and neck), then each arm with the solved spine held. The lower body's residuals do not
-//   read the upper body's unknowns (directions and offsets from the pelvis), so that split is
-//   exact; the spine is solved before the arms without their end-effector terms. Each frame
+//   derivatives (fixed parameter counts, buffers reused: no allocation per solve); rotations as
+//   q = q0 q(x), q(x) the rotation by the vector x (EigenQuaternionManifold's chart). The lower
+//   body (dp, the turn and both legs, up to 24 unknowns) first, then the spine (chain joints and
+//   neck, without the arms' end-effector terms), then each arm with the solved spine held. The
+//   lower body's residuals do not read the upper body's unknowns, so that split is exact. Each frame
 //   warm-starts from the previous one (its corrections q_ref^-1 q, dp - dp_plan and the turn
 //   carried onto this frame); each window of `window_frames` starts from the reference, at its
 //   first frame or, with the lag, 0.25 s before it (those frames are solved and discarded).
@@ -148,10 +120,11 @@
 //   solution (its first joints turned against the change of the pelvis's turn, so that their
 //   world rotations stay): its residuals read neither dp nor the legs and its corrections (end
 //   effectors against directions, no contacts) change smoothly; leaving it out makes the problem
-//   ~6 times cheaper. The smoothness residuals pass through Cauchy losses rho(s) = b^2 log(1 + s / b^2)
-//   with b at `smoothness_limit` and `pelvis_smoothness_limit`: quadratic for accelerations
-//   below, nearly flat far above, so a genuine jump (the T-pose reference frame that opens CMU
-//   files) is left alone instead of being smeared over its neighbours.
+//   several times cheaper. The smoothness residuals pass through Cauchy losses
+//   rho(s) = b^2 log(1 + s / b^2) with b at `smoothness_limit` and `pelvis_smoothness_limit`:
+//   quadratic for accelerations below, nearly flat far above, so a genuine jump (the T-pose
+//   reference frame that opens CMU files) is left alone instead of being smeared over its
+//   neighbours.
 // Balanced windows are solved in parallel (options.threads), each from data no other window
 // writes, and cut at fixed frames whatever the thread count; the spans are solved in turn on one
 // thread: threads change the speed, not the result.
@@ -205,13 +178,11 @@ struct RefineOptions {
 
 // Defaults per quality (fast: nothing to refine):
 //   balanced: the weights above, windows of 64 frames;
-//   accurate: no lag, foot contact 12 per m (at 6 the smoothness lets planted feet lift up to 1.6 cm
-//   and slide 1.1 cm a frame on the CMU walk), smoothness 0.0001 per rad/s^2 and pelvis
-//   smoothness 0.01 per m/s^2, spans of 1,024 frames with 32 frames of lookahead. The rotation
-//   smoothness fights the contacts: a planted foot's correction must cancel the performer's leg
-//   noise, whose acceleration grows with the frame rate squared. On the shared humanoids at
-//   0.0005, accurate was within 1% of its jitter at 0.0001 at 30 fps and 0.4-7% rougher at
-//   120 fps (README).
+//   accurate: no lag, foot contact 12 per m (at 6 its smoothness lets planted feet lift and
+//   slide), smoothness 0.0001 per rad/s^2 and pelvis smoothness 0.01 per m/s^2, spans of 1,024
+//   frames with 32 frames of lookahead. The rotation smoothness fights the contacts: a planted
+//   foot's correction must cancel the performer's leg noise, whose acceleration grows with the
+//   frame rate squared, so a higher weight is rougher at high frame rates (docs/retargeting.md).
 RefineOptions default_refine_options(Quality quality);
 
 // The weights by the names that command lines, scene files and reports use ("bone_direction",

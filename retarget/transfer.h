@@ -59,10 +59,9 @@
 //           linear between the nearest frames with a contact (held before the first and after
 //           the last; every foot's mean when the source never plants one),
 //   dz(t) = n smoothed by a Gaussian of sigma = 0.1 s (normalised where it runs past the clip).
-// The planted feet then stay on the floor through a crouch, a flight lands where the next contact
-// wants the body, and the smoothing keeps contacts starting and ending from jerking the body.
-// One constant for the clip (the mean of g) left a robot's feet floating or sunk 2 cm on average
-// at fast, up to 5 cm in the CMU jump's crouch.
+// The planted feet then stay on the floor through a crouch (which one constant for the clip
+// cannot follow), a flight lands where the next contact wants the body, and the smoothing keeps
+// contacts starting and ending from jerking the body.
 //
 // The same legs make a planted foot slide: with the thigh shorter than the scaled performer's,
 // the foot under a pelvis that travels s times the performer's path moves while the source's
@@ -78,8 +77,7 @@
 //
 // Nor can a root motion put two planted feet on the floor when one stands higher than the other:
 // with hip width and leg length not the performer's in one ratio, a leg along the performer's
-// ends too high or too low (RobotExpressive's two feet, up to 10 cm apart in the CMU jump's
-// crouch). The pelvis rolls instead: turned by r about the horizontal axis z x h (h the hip chord
+// ends too high or too low. The pelvis rolls instead: turned by r about the horizontal axis z x h (h the hip chord
 // left minus right, horizontal part, unit), the left hip falls by r |h| relative to the right
 // (to first order), and the legs, whose directions are held in world, carry the feet with them.
 // So, in a first pass over the clip with the pelvis as driven,
@@ -87,26 +85,24 @@
 //          degrees), 0 elsewhere, smoothed by a Gaussian of sigma = 0.05 s,
 // and the clip is placed again with the pelvis's world rotation turned by r(t) before dz and c
 // are measured. The chain bones stay exact; the pelvis's own rotation is a fit already (branch
-// joint). Held between double supports instead of falling to 0, the roll swayed the hips through
-// each step and lowered the swinging foot: fast's skate on the synthetic SMPL-X walk rose by 0.09
-// on RiggedFigure and CesiumMan.
+// joint). The roll falls to 0 between double supports: held there, it would sway the hips through
+// each step and lower the swinging foot.
 //
 // Joints placed by position (they become animated translations in the output clip):
 // - A detached segment's end (rig.h: RobotExpressive's feet hang from the root bone, not from the
 //   shins) is placed at the end of its segment's start joint A, as if it hung from it:
 //     P(t) = P(A, t) + W(A, t) W^rest(A)^-1 (P_T^rest(joint) - P_T^rest(A)),
 //   so the line a viewer sees from the knee to the foot follows the source shin exactly, as an
-//   attached foot does. (Placing such a foot where the scaled source's foot is instead keeps a
-//   planted foot still, but with legs built unlike the performer's, the robot's thigh two thirds
-//   of the scaled performer's, the shin it draws leaves the source's by 8-10 degrees; planting
-//   feet is the refinement's job, which places them this way too, refine_model.h.)
+//   attached foot does. (Placed where the scaled source's foot is, a planted foot would stay
+//   still, but on legs built unlike the performer's the shin it draws would leave the source's;
+//   planting feet is the refinement's job, which places them this way too, refine_model.h.)
 // - Feet with a toe (contacts.h: the front of the sole, from the mesh) take their pitch from
-//   positions, not from the source's rotation. Copied, the foot segment points where the
-//   performer's ankle -> ball does, but rigs put the ball joint elsewhere on the sole: RiggedFigure's
-//   sits 61 degrees below its ankle at rest against the performer's 18, so its foot stood toes up
-//   by 41 degrees through every contact (`foot_tilt_deg`, metrics.h); RobotExpressive's block, 2.9
-//   times as long heel to toe as the scaled performer's ankle to ball, drove its toe through the
-//   floor at toe-off (the performer's pitch reaches 55 degrees there). The rotation above is turned
+//   positions, not from the source's rotation. Copied, the foot segment would point where the
+//   performer's ankle -> ball does, but rigs put the ball joint elsewhere on the sole
+//   (RiggedFigure's 61 degrees below its ankle at rest, the performer's 18), so the foot would
+//   stand toes up through every contact (`foot_tilt_deg`, metrics.h), and a foot much longer than
+//   the scaled performer's (RobotExpressive's block) would drive its toe through the floor at
+//   toe-off. The rotation above is turned
 //   about its horizontal lateral axis through the foot's first joint so that the toe stands above
 //   that joint as the source's ball of the foot stands above its ankle, in clearances (contacts.h)
 //   scaled by s:
@@ -120,10 +116,9 @@
 //   foot segment is then off the performer's direction by the two rigs' builds (metrics.h reports
 //   feet apart).
 //   The rise assumes the leg lifts the heel as far as the scaled performer's, and a leg short for
-//   its foot does not: the KayKit mannequin's (37 cm of leg above a sole reaching 27 cm ahead of
-//   the ankle) lifts its heel 2.7 cm at the CMU walk's toe-offs where the scaled performer's rises
-//   10, and the rise alone put its toe 4.5 cm into the floor. So the toe stands no lower than the
-//   performer's lowest foot joint, in clearances scaled by s:
+//   its foot (the KayKit mannequin's) does not: the rise alone would put its toe into the floor at
+//   toe-off. So the toe stands no lower than the performer's lowest foot joint, in clearances
+//   scaled by s:
 //     rise >= g_toe + s clearance_S(t) - (z(joint) + dz_1(t)),
 //   dz_1 the floor offset dz(t) above from a first pass, over the foot joints alone and the frames
 //   where the performer's heel is down (ankle clearance under 1 cm): there a foot stands flat on
