@@ -191,7 +191,7 @@ TEST(BatchCli, CrossProductWritesTheLayoutTheReportAndValidGlbs) {
     EXPECT_EQ(job["status"], "done");
     EXPECT_EQ(job["frames"], 60) << job["name"];  // 240 frames at 120 fps, resampled to 30
     const nlohmann::json& metrics = job["metrics"];
-    // Fast swings every chain bone onto the source's (README: Retargeting: speed and accuracy).
+    // Fast swings every chain bone onto the source's (docs/benchmarks.md: Retargeting: speed and accuracy).
     EXPECT_LT(metrics["worst_limb_mean_deg"].get<double>(), 0.01) << job["name"];
     // The report carries the source's figures beside the result's, measured on the same cut.
     EXPECT_GT(metrics["source_jitter"].get<double>(), 0.0);

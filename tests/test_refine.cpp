@@ -222,7 +222,7 @@ INSTANTIATE_TEST_SUITE_P(CmuWalk, RefineWalkTest,
 // correction frame by frame, while accurate follows the performer's accelerations more closely:
 // on this walk at 120 fps the two are about as smooth (the Mixamo test rig 29.2 m/s^2 at balanced,
 // 30.3 at accurate, the source's 30.3; at 30 fps accurate is the smoother on every shared
-// humanoid and clip: README). Accurate may be up to 4% rougher than balanced.
+// humanoid and clip: docs/benchmarks.md). Accurate may be up to 4% rougher than balanced.
 TEST(RefineTest, AccurateIsAsSmoothAsBalancedWithinFourPercent) {
   for (const std::string& character : kCharacters) {
     const RetargetReport& report = refined_by_default(character, Quality::balanced).report;
