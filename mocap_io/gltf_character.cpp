@@ -19,6 +19,7 @@
 #include <string_view>
 
 #include "mocap_io/input_error.h"
+#include "skeleton/node_transform.h"
 #include "skeleton/rotation.h"
 
 namespace odyssey::io {
@@ -458,18 +459,10 @@ class CharacterReader {
  private:
   [[noreturn]] void fail(const std::string& problem) const { throw InputError(path_, problem); }
 
-  // A node's rest translation, rotation (normalised) and scale, or its matrix, checked as node_local does.
-  NodeRest node_rest(int node) const {
-    const tinygltf::Node& n = model_.nodes[node];
-    NodeRest rest;
-    if (!n.matrix.empty()) {
-      rest.matrix = node_local(node);
-      return rest;
-    }
-    const Eigen::Matrix4d local = node_local(node);  // checks every number
-    if (!n.translation.empty()) rest.translation = local.topRightCorner<3, 1>();
-    if (!n.rotation.empty()) rest.rotation = Eigen::Quaterniond(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]).normalized();
-    if (!n.scale.empty()) rest.scale = Eigen::Vector3d(n.scale[0], n.scale[1], n.scale[2]);
+  // A node's rest translation, rotation (normalised) and scale, or its matrix, checked as node_transform does.
+  NodeTransform node_rest(int node) const {
+    NodeTransform rest = node_transform(node);
+    rest.rotation.normalize();
     return rest;
   }
 
@@ -567,6 +560,7 @@ class CharacterReader {
   // first; a node the walk never reaches hangs on a cycle.
   void build_hierarchy() {
     parent_.assign(node_count(), -1);
+    std::vector<std::vector<int>> children(node_count());
     for (int node = 0; node < node_count(); ++node) {
       for (int child : model_.nodes[node].children) {
         if (child == node) fail(node_label(node) + " lists itself as a child: the node hierarchy has a cycle");
@@ -575,24 +569,13 @@ class CharacterReader {
         }
         parent_[child] = node;
       }
+      children[node] = model_.nodes[node].children;
     }
-    std::vector<int> stack;
-    for (int node = node_count() - 1; node >= 0; --node) {
-      if (parent_[node] < 0) stack.push_back(node);
+    HierarchyOrder walk = depth_first_order(parent_, children);
+    if (walk.unreached >= 0) {
+      fail("the node hierarchy has a cycle through " + node_label(walk.unreached) + " (it never reaches a root node)");
     }
-    while (!stack.empty()) {
-      const int node = stack.back();
-      stack.pop_back();
-      order_.push_back(node);
-      const std::vector<int>& children = model_.nodes[node].children;
-      for (auto it = children.rbegin(); it != children.rend(); ++it) stack.push_back(*it);
-    }
-    if (static_cast<int>(order_.size()) != node_count()) {
-      std::vector<bool> reached(node_count(), false);
-      for (int node : order_) reached[node] = true;
-      const int on_cycle = static_cast<int>(std::find(reached.begin(), reached.end(), false) - reached.begin());
-      fail("the node hierarchy has a cycle through " + node_label(on_cycle) + " (it never reaches a root node)");
-    }
+    order_ = std::move(walk.order);
   }
 
   void check_finite(const std::vector<double>& values, std::size_t expected, const std::string& what) const {
@@ -604,10 +587,12 @@ class CharacterReader {
     }
   }
 
-  // L = matrix (column-major, as Eigen stores it) or T R S.
-  Eigen::Matrix4d node_local(int node) const {
+  // The node's matrix (column-major, as Eigen stores it; its last row made exactly 0 0 0 1) or
+  // translation, rotation (as stored) and scale, every number checked.
+  NodeTransform node_transform(int node) const {
     const tinygltf::Node& n = model_.nodes[node];
     const std::string label = node_label(node);
+    NodeTransform transform;
     if (!n.matrix.empty()) {
       check_finite(n.matrix, 16, label + " matrix");
       Eigen::Matrix4d local = Eigen::Map<const Eigen::Matrix4d>(n.matrix.data());
@@ -615,32 +600,31 @@ class CharacterReader {
         fail(label + " matrix is not affine (last row not 0 0 0 1)");
       }
       local.row(3) = Eigen::RowVector4d(0, 0, 0, 1);
-      return local;
+      transform.matrix = local;
+      return transform;
     }
-    Eigen::Matrix4d local = Eigen::Matrix4d::Identity();
     if (!n.rotation.empty()) {
       check_finite(n.rotation, 4, label + " rotation");
       // glTF stores x, y, z, w; Eigen's constructor takes w, x, y, z.
-      const Eigen::Quaterniond q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);
-      if (q.norm() < 1e-6) fail(label + " rotation quaternion has (near) zero length");
-      local.topLeftCorner<3, 3>() = q.normalized().toRotationMatrix();
+      transform.rotation = Eigen::Quaterniond(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);
+      if (transform.rotation.norm() < 1e-6) fail(label + " rotation quaternion has (near) zero length");
     }
     if (!n.scale.empty()) {
       check_finite(n.scale, 3, label + " scale");
-      local.topLeftCorner<3, 3>() *= Eigen::Vector3d(n.scale[0], n.scale[1], n.scale[2]).asDiagonal();
+      transform.scale = Eigen::Vector3d(n.scale[0], n.scale[1], n.scale[2]);
     }
     if (!n.translation.empty()) {
       check_finite(n.translation, 3, label + " translation");
-      local.topRightCorner<3, 1>() = Eigen::Vector3d(n.translation[0], n.translation[1], n.translation[2]);
+      transform.translation = Eigen::Vector3d(n.translation[0], n.translation[1], n.translation[2]);
     }
-    return local;
+    return transform;
   }
 
   void compute_world_matrices() {
-    world_.resize(node_count());
+    std::vector<Eigen::Matrix4d> local(node_count());
+    for (int node : order_) local[node] = local_matrix(node_transform(node));
+    world_matrices(parent_, order_, local, world_);
     for (int node : order_) {
-      const Eigen::Matrix4d local = node_local(node);
-      world_[node] = parent_[node] < 0 ? local : Eigen::Matrix4d(world_[parent_[node]] * local);
       if (!world_[node].allFinite()) fail(node_label(node) + " world transform overflows");
     }
   }

@@ -24,6 +24,7 @@
 #include "mocap_io/gltf_character.h"
 #include "mocap_io/input_error.h"
 #include "mocap_io/output_file.h"
+#include "skeleton/node_transform.h"
 #include "skeleton/rotation.h"
 
 namespace odyssey::io {
@@ -284,7 +285,7 @@ class AnimatedGlbBuilder {
     }
   }
 
-  // L = matrix or T R S; G(n) = G(parent) L(n), parents first.
+  // L = matrix or T R S (node_transform.h).
   Eigen::Matrix4d node_local(int node) const {
     const tinygltf::Node& n = model_.nodes[node];
     const auto check = [&](const std::vector<double>& values, std::size_t size, const std::string& what) {
@@ -300,46 +301,40 @@ class AnimatedGlbBuilder {
       }
       return local;
     }
-    Eigen::Matrix4d local = Eigen::Matrix4d::Identity();
+    NodeTransform trs;
     if (!n.rotation.empty()) {
       check(n.rotation, 4, "rotation");
-      if (quaternion_of(n.rotation).norm() < 1e-6) fail(node_label(model_, node) + " rotation has (near) zero length");
-      local.topLeftCorner<3, 3>() = quaternion_of(n.rotation).normalized().toRotationMatrix();
+      trs.rotation = quaternion_of(n.rotation);
+      if (trs.rotation.norm() < 1e-6) fail(node_label(model_, node) + " rotation has (near) zero length");
     }
     if (!n.scale.empty()) {
       check(n.scale, 3, "scale");
-      local.topLeftCorner<3, 3>() *= Eigen::Vector3d(n.scale[0], n.scale[1], n.scale[2]).asDiagonal();
+      trs.scale = Eigen::Vector3d(n.scale[0], n.scale[1], n.scale[2]);
     }
     if (!n.translation.empty()) {
       check(n.translation, 3, "translation");
-      local.topRightCorner<3, 1>() = Eigen::Vector3d(n.translation[0], n.translation[1], n.translation[2]);
+      trs.translation = Eigen::Vector3d(n.translation[0], n.translation[1], n.translation[2]);
     }
-    return local;
+    return local_matrix(trs);
   }
 
+  // G(n) = G(parent) L(n) of every node, parents first.
   void compute_world_matrices() {
     parent_.assign(node_count(), -1);
+    std::vector<std::vector<int>> children(node_count());
     for (int node = 0; node < node_count(); ++node) {
       for (int child : model_.nodes[node].children) {
         check_index(child, model_.nodes.size(), node_label(model_, node) + " child", "node");
         if (parent_[child] >= 0 || child == node) fail(node_label(model_, child) + " has two parents or is on a cycle");
         parent_[child] = node;
       }
+      children[node] = model_.nodes[node].children;
     }
-    world_.assign(node_count(), Eigen::Matrix4d::Identity());
-    std::vector<int> stack;
-    for (int node = 0; node < node_count(); ++node) {
-      if (parent_[node] < 0) stack.push_back(node);
-    }
-    int reached = 0;
-    while (!stack.empty()) {
-      const int node = stack.back();
-      stack.pop_back();
-      ++reached;
-      world_[node] = (parent_[node] < 0 ? Eigen::Matrix4d::Identity() : world_[parent_[node]]) * node_local(node);
-      for (int child : model_.nodes[node].children) stack.push_back(child);
-    }
-    if (reached != node_count()) fail("the node hierarchy has a cycle");
+    const HierarchyOrder walk = depth_first_order(parent_, children);
+    if (walk.unreached >= 0) fail("the node hierarchy has a cycle");
+    std::vector<Eigen::Matrix4d> local(node_count());
+    for (int node : walk.order) local[node] = node_local(node);
+    world_matrices(parent_, walk.order, local, world_);
   }
 
   // The character must be the one load_character() made from this file: its joints sit on

@@ -75,32 +75,18 @@ void NodeAnimation::validate() const {
 }
 
 void NodeAnimation::world_matrices(double t, std::vector<Eigen::Matrix4d>& world) const {
-  const std::size_t nodes = parents.size();
-  std::vector<Eigen::Vector3d> translation(nodes), scale(nodes);
-  std::vector<Eigen::Quaterniond> rotation(nodes);
-  for (std::size_t n = 0; n < nodes; ++n) {
-    translation[n] = rest[n].translation;
-    rotation[n] = rest[n].rotation;
-    scale[n] = rest[n].scale;
-  }
+  std::vector<NodeTransform> pose = rest;
   double value[4];
   for (const NodeChannel& channel : channels) {
     channel.track.sample(t, std::span(value, channel.track.components));
-    if (channel.property == NodeProperty::translation) translation[channel.node] = Eigen::Vector3d(value[0], value[1], value[2]);
-    if (channel.property == NodeProperty::scale) scale[channel.node] = Eigen::Vector3d(value[0], value[1], value[2]);
-    if (channel.property == NodeProperty::rotation) rotation[channel.node] = Eigen::Quaterniond(value[3], value[0], value[1], value[2]);
+    NodeTransform& node = pose[channel.node];
+    if (channel.property == NodeProperty::translation) node.translation = Eigen::Vector3d(value[0], value[1], value[2]);
+    if (channel.property == NodeProperty::scale) node.scale = Eigen::Vector3d(value[0], value[1], value[2]);
+    if (channel.property == NodeProperty::rotation) node.rotation = Eigen::Quaterniond(value[3], value[0], value[1], value[2]);
   }
-  world.resize(nodes);
-  for (const int n : order) {
-    Eigen::Matrix4d local = Eigen::Matrix4d::Identity();
-    if (rest[n].matrix) {
-      local = *rest[n].matrix;
-    } else {
-      local.topLeftCorner<3, 3>() = rotation[n].normalized().toRotationMatrix() * scale[n].asDiagonal();
-      local.topRightCorner<3, 1>() = translation[n];
-    }
-    world[n] = parents[n] < 0 ? local : Eigen::Matrix4d(world[parents[n]] * local);
-  }
+  std::vector<Eigen::Matrix4d> local(pose.size());
+  for (std::size_t n = 0; n < pose.size(); ++n) local[n] = local_matrix(pose[n]);
+  odyssey::world_matrices(parents, order, local, world);
 }
 
 Clip play_node_animation(const Character& character, const NodeAnimation& animation, std::span<const double> times,

@@ -4,7 +4,8 @@
 //
 // Evaluation at animation time t: each node's local matrix is L = T R S from its rest
 // translation, rotation and scale with the animated ones substituted (a node given as a matrix
-// keeps it; glTF does not animate those), and its world matrix G(n) = G(parent) L(n).
+// keeps it; glTF does not animate those), and its world matrix G(n) = G(parent) L(n)
+// (node_transform.h).
 //
 // Playback on the character. The character's joint j stands for node n = source_node_of_joint[j];
 // its rest world transform is W = C [R | t] with [A | t] = G_rest(n), R the rotation closest to A
@@ -24,7 +25,6 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <Eigen/Geometry>
 #include <optional>
 #include <span>
 #include <string>
@@ -33,19 +33,13 @@
 #include "skeleton/character.h"
 #include "skeleton/clip.h"
 #include "skeleton/keyframes.h"
+#include "skeleton/node_transform.h"
 
 namespace odyssey {
 
 // Largest change of R^T A (relative to its rest value's norm) accepted on a joint that binds
 // vertices: a vertex at distance r from its joint then moves by at most about 1e-5 r.
 inline constexpr double kMaxSkinScaleChange = 1e-5;
-
-struct NodeRest {
-  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
-  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
-  Eigen::Vector3d scale = Eigen::Vector3d::Ones();
-  std::optional<Eigen::Matrix4d> matrix;  // a node given as a matrix (never animated)
-};
 
 enum class NodeProperty { translation, rotation, scale };
 
@@ -59,7 +53,7 @@ struct NodeAnimation {
   std::string name;
   std::vector<int> parents;  // per node, -1 for a root
   std::vector<int> order;    // every node, parents before children
-  std::vector<NodeRest> rest;
+  std::vector<NodeTransform> rest;  // the nodes as the file gives them
   std::vector<NodeChannel> channels;
   double start = 0, end = 0;  // the earliest and latest key time of any channel
   Eigen::Matrix3d to_world = Eigen::Matrix3d::Identity();

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "skeleton/node_transform.h"
+
 namespace odyssey {
 
 Skeleton::Skeleton(std::vector<std::string> names, std::vector<int> parents, std::vector<Eigen::Vector3d> rest_offsets,
@@ -41,38 +43,20 @@ Skeleton Skeleton::from_unordered(std::vector<std::string> names, std::vector<in
     throw std::invalid_argument("skeleton arrays differ in length");
   }
   std::vector<std::vector<int>> children(n);
-  std::vector<int> roots;
   for (int i = 0; i < n; ++i) {
-    if (parents[i] == -1) {
-      roots.push_back(i);
-    } else if (parents[i] < 0 || parents[i] >= n) {
+    if (parents[i] < -1 || parents[i] >= n) {
       throw std::invalid_argument("joint '" + names[i] + "' has parent index " + std::to_string(parents[i]) +
                                   " outside 0.." + std::to_string(n - 1));
-    } else {
-      children[parents[i]].push_back(i);
     }
+    if (parents[i] >= 0) children[parents[i]].push_back(i);
   }
-  // Depth-first from each root; a joint never reached lies on a cycle (every joint has one
-  // parent, so anything not hanging from a root loops back on itself).
-  std::vector<int> order;
-  order.reserve(n);
-  std::vector<int> stack;
-  for (int root : roots) {
-    stack.push_back(root);
-    while (!stack.empty()) {
-      const int joint = stack.back();
-      stack.pop_back();
-      order.push_back(joint);
-      for (auto it = children[joint].rbegin(); it != children[joint].rend(); ++it) stack.push_back(*it);
-    }
+  // Depth-first from each root (node_transform.h); a joint never reached lies on a cycle (every
+  // joint has one parent, so anything not hanging from a root loops back on itself).
+  const HierarchyOrder walk = depth_first_order(parents, children);
+  if (walk.unreached >= 0) {
+    throw std::invalid_argument("joint '" + names[walk.unreached] + "' is on a parent cycle (it never reaches a root)");
   }
-  if (static_cast<int>(order.size()) != n) {
-    std::vector<bool> reached(n, false);
-    for (int joint : order) reached[joint] = true;
-    int on_cycle = 0;
-    while (reached[on_cycle]) ++on_cycle;
-    throw std::invalid_argument("joint '" + names[on_cycle] + "' is on a parent cycle (it never reaches a root)");
-  }
+  const std::vector<int>& order = walk.order;
   std::vector<int> new_index(n);
   for (int k = 0; k < n; ++k) new_index[order[k]] = k;
   std::vector<std::string> sorted_names(n);
