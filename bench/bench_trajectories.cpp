@@ -1,12 +1,12 @@
-// Speed and memory of the streams renderers and annotators consume (scene_layouts/streams.h),
+// Speed and memory of the streams renderers and annotators consume (scene_layouts/frame_loop.h, sinks.h),
 // end to end from a retargeted clip to a file on disk:
 //
-//   trajectories  the frame loop (run_streams) into a TrajectorySink and close(): per frame forward
-//                 kinematics, the points' corner vertices skinned, the whole mesh skinned and drawn
+//   trajectories  the frame loop (run_frame_loop) into a TrajectorySink, finished and committed:
+//                 per frame forward kinematics, the points' corner vertices skinned, the whole mesh skinned and drawn
 //                 into a 960x540 depth buffer, 5,000 points projected and depth-tested, every key
 //                 written (stored npz, as odyssey trajectories writes by default);
-//   point cache   the frame loop into a PointCacheSink and close(): the whole mesh skinned and
-//                 written every frame.
+//   point cache   the frame loop into a PointCacheSink, finished and committed (its rest OBJ
+//                 included): the whole mesh skinned and written every frame.
 // Characters: RiggedFigure (the bundled character) and the synthetic SMPL-X body as a character
 // (10,475 vertices, 20,908 triangles, 55 joints). Motion: the CMU jump BVH retargeted (quality
 // fast) onto the character, resampled to the frame count of the row; an orbiting camera of the
@@ -42,7 +42,9 @@
 #include "retarget/parts.h"
 #include "retarget/retarget.h"
 #include "scene_layouts/camera_rigs.h"
-#include "scene_layouts/streams.h"
+#include "scene_layouts/frame_loop.h"
+#include "scene_layouts/pipeline.h"
+#include "scene_layouts/sinks.h"
 #include "skeleton/synthetic_body.h"
 #include "skinning/body_character.h"
 #include "skinning/sampling.h"
@@ -97,7 +99,8 @@ std::string scratch(const std::string& name) {
   return (fs::temp_directory_path() / ("odyssey_bench_" + std::to_string(::getpid()) + "_" + name)).string();
 }
 
-// Runs the frame loop (run_streams) on one actor into one sink: what every command and scene does.
+// Runs the frame loop stage on one actor into one sink and finishes it: what every command and
+// scene does after prepare_shot.
 double run_once(const Subject& subject, const Clip& clip, const CameraPath* camera, scene::StreamSink& sink) {
   scene::StreamActor actor;
   actor.name = subject.name;
@@ -111,7 +114,10 @@ double run_once(const Subject& subject, const Clip& clip, const CameraPath* came
     actor.mesh_every_frame = true;
   }
   scene::StreamSink* sinks[] = {&sink};
-  return scene::run_streams(std::span(&actor, 1), nullptr, cameras, sinks).seconds;
+  const auto start = std::chrono::steady_clock::now();
+  scene::run_frame_loop(std::span(&actor, 1), nullptr, cameras, sinks);
+  sink.finish(scene::SceneResult{});
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 double export_trajectories_once(const Subject& subject, const Clip& clip, const CameraPath& camera) {
@@ -120,24 +126,26 @@ double export_trajectories_once(const Subject& subject, const Clip& clip, const 
   scene::StreamActor actor;
   actor.character = &subject.character;
   actor.points = subject.points;
-  io::TrajectoryFileWriter writer(path, scene::trajectory_file_header(std::span(&actor, 1), nullptr, clip.frame_count(), clip.fps));
-  scene::TrajectorySink sink(0, writer);
+  io::StagedOutputs staged;
+  scene::TrajectorySink sink(0, path, scene::trajectory_file_header(std::span(&actor, 1), nullptr, clip.frame_count(), clip.fps),
+                             false, staged);
   run_once(subject, clip, &camera, sink);
-  writer.close();
+  staged.commit();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   fs::remove(path);
   return seconds;
 }
 
 double export_point_cache_once(const Subject& subject, const Clip& clip) {
-  const std::string path = scratch(subject.name + ".pc2");
+  const std::string path = scratch(subject.name + ".pc2"), obj_path = scratch(subject.name + ".obj");
   const auto start = std::chrono::steady_clock::now();
-  io::Pc2Writer writer(path, subject.vertices, clip.frame_count());
-  scene::PointCacheSink sink(0, writer);
+  io::StagedOutputs staged;
+  scene::PointCacheSink sink(0, subject.character, subject.name, clip.frame_count(), path, obj_path, staged);
   run_once(subject, clip, nullptr, sink);
-  writer.close();
+  staged.commit();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   fs::remove(path);
+  fs::remove(obj_path);
   return seconds;
 }
 

@@ -79,7 +79,7 @@ int run_retarget(const std::vector<std::string>& arguments) {
   const scene::RetargetedActor& retargeted = *result.actors[0].retargeted;
   std::printf("timings    %s, write %.3f s; total %.3f s\n", scene::actor_timings(retargeted).c_str(),
               result.seconds.total - result.seconds.retarget, result.seconds.total);
-  const std::string camera_kind = result.cameras.empty() ? "" : result.cameras[0].kind;
+  const std::string camera_kind = result.cameras.empty() ? "" : result.cameras[0].path.kind;
   std::printf("wrote      %s (%d frames at %.6g fps, quality %s%s%s)%s%s%s%s\n", out_path.c_str(), result.frames,
               result.fps, retarget::quality_name(retargeted.request.quality), camera_kind.empty() ? "" : ", camera ",
               camera_kind.c_str(), report_path ? ", " : "", report_path ? report_path->c_str() : "",

@@ -69,7 +69,7 @@ int run_scene(const std::vector<std::string>& arguments) {
     std::fflush(stdout);
   });
   std::printf("scene      %s: %zu actor(s), %zu prop(s), %zu camera(s), %d frames at %.6g fps\n", result.name.c_str(),
-              result.actors.size(), result.prop_names.size(), result.cameras.size(), result.frames, result.fps);
+              result.actors.size(), result.props.names.size(), result.cameras.size(), result.frames, result.fps);
   for (const scene::PlacedActor& actor : result.actors) {
     std::printf("actor      %s: at (%.3f, %.3f) facing %.1f deg, %d points\n", actor.name.c_str(), actor.x, actor.y,
                 actor.yaw_deg, actor.points);

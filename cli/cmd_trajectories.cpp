@@ -78,7 +78,7 @@ int run_trajectories(const std::vector<std::string>& arguments) {
   }
 
   const scene::SceneResult result = scene::run_scene(scene, print_progress);
-  const CameraPath& camera = result.cameras[0];
+  const CameraPath& camera = result.cameras[0].path;
   const scene::CameraStreamSummary& seen = result.streams.cameras[0];
   std::printf("camera     %s, %dx%d px, horizontal fov %.4g deg, %d frames\n", camera.kind.c_str(),
               camera.intrinsics[0].width, camera.intrinsics[0].height, camera.intrinsics[0].horizontal_fov_deg(),

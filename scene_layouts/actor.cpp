@@ -16,6 +16,7 @@
 #include "mocap_io/gltf_character.h"
 #include "mocap_io/input_error.h"
 #include "mocap_io/motion_file.h"
+#include "retarget/quality.h"
 #include "skeleton/body_clip.h"
 #include "skeleton/pose_layout.h"
 #include "skeleton/synthetic_body.h"
@@ -148,10 +149,6 @@ std::shared_ptr<const BodyModel> LoadCache::body_model(const std::optional<std::
 }
 
 RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCallback& progress, LoadCache* cache) {
-  if (request.quality != retarget::Quality::fast && request.refine_options.quality != request.quality) {
-    throw std::invalid_argument("the refinement options are " + std::string(retarget::quality_name(request.refine_options.quality)) +
-                                "'s, the request asks for " + retarget::quality_name(request.quality));
-  }
   RetargetedActor actor;
   actor.request = request;
   const auto report = [&](const char* stage, std::string message) {
@@ -202,13 +199,12 @@ RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCal
   report("bone_maps", "source: " + actor.source_map.origin + "; target: " + actor.target_map.origin +
                           "; parts: " + retarget::parts_name(request.parts));
 
-  start = Clock::now();
-  actor.result = retarget::retarget_fast(actor.source, actor.source_map, actor.character, actor.target_map,
-                                         request.options, request.motion_path);
-  actor.seconds.retarget_fast = seconds_since(start);
-  if (request.quality != retarget::Quality::fast) {
-    actor.refined = retarget::refine(actor.result, actor.source, request.refine_options);
-  }
+  retarget::Retargeting retargeting =
+      retarget::retarget(actor.source, actor.source_map, actor.character, actor.target_map, request.quality, request.options,
+                         request.refine_options, request.motion_path);
+  actor.result = std::move(retargeting.result);
+  actor.refined = std::move(retargeting.refined);
+  actor.seconds.retarget_fast = retargeting.fast_seconds;
   report("retarget", std::string("quality ") + retarget::quality_name(request.quality) + ", " +
                          std::to_string(actor.result.report.frames) + " frames");
   return actor;

@@ -95,11 +95,32 @@ void draw_points(PreviewFrame& image, std::span<const float> uv, std::span<const
   }
 }
 
-void ContactSheetSink::write(const FrameChunk& chunk) {
-  for (const PreviewFrame& frame : chunk.cameras[camera_].previews) tiles_.push_back(frame);
+namespace {
+constexpr std::size_t kTrailFrames = 15, kTrailStride = 8;
+}  // namespace
+
+ContactSheetSink::ContactSheetSink(int camera, int frames, const std::string& path, io::StagedOutputs& staged)
+    : camera_(camera), path_(path), staged_(staged.stage(path)), frames_(preview_frames(frames)) {}
+
+void ContactSheetSink::camera_frame(const CameraFrame& frame) {
+  if (frame.camera != camera_) return;
+  const std::size_t n = frame.codes.size();
+  if (trail_.empty()) trail_.assign(kTrailFrames, std::vector<float>(2 * ((n + kTrailStride - 1) / kTrailStride), NAN));
+  std::vector<float>& trail = trail_[trail_next_];
+  for (std::size_t i = 0; i < n; i += kTrailStride) {
+    trail[2 * (i / kTrailStride)] = frame.valid[i] ? frame.uv[2 * i] : NAN;
+    trail[2 * (i / kTrailStride) + 1] = frame.valid[i] ? frame.uv[2 * i + 1] : NAN;
+  }
+  trail_next_ = (trail_next_ + 1) % kTrailFrames;
+  if (!std::binary_search(frames_.begin(), frames_.end(), frame.frame)) return;
+  PreviewFrame image = draw_preview(*frame.depth, [&](std::uint32_t t) { return frame.owner(t); }, frame.frame);
+  std::vector<std::vector<float>> oldest_first;
+  for (std::size_t k = 0; k < kTrailFrames; ++k) oldest_first.push_back(trail_[(trail_next_ + k) % kTrailFrames]);
+  draw_points(image, frame.uv, frame.codes, oldest_first);
+  tiles_.push_back(std::move(image));
 }
 
-void ContactSheetSink::finish() {
+void ContactSheetSink::finish(const SceneResult&) {
   if (tiles_.empty()) return;
   // Half-size tiles (each output pixel the mean of a 2x2 block), three to a row, 4 px apart.
   constexpr int kGap = 4;
@@ -129,7 +150,7 @@ void ContactSheetSink::finish() {
       }
     }
   }
-  io::write_png_rgb(path_, width, height, sheet);
+  io::write_png_rgb(staged_, width, height, sheet);
 }
 
 }  // namespace odyssey::scene

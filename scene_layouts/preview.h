@@ -14,7 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "scene_layouts/streams.h"
+#include "mocap_io/output_file.h"
+#include "scene_layouts/frame_loop.h"
 #include "scene_layouts/visibility.h"
 
 namespace odyssey::scene {
@@ -22,7 +23,14 @@ namespace odyssey::scene {
 // The frames a contact sheet of a shot of `frames` frames shows.
 std::vector<int> preview_frames(int frames);
 
-// (PreviewFrame is in streams.h: the frame loop draws the tiles.) Draws the last render of `buffer`; `owner` maps a triangle of that render to its owner (actor
+// A contact-sheet tile: one frame as the camera's depth buffer saw it, RGB.
+struct PreviewFrame {
+  int frame = 0;
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> rgb;  // width x height x 3, rows from the top
+};
+
+// Draws the last render of `buffer`; `owner` maps a triangle of that render to its owner (actor
 // index >= 0, or < 0 for a prop).
 PreviewFrame draw_preview(const DepthBuffer& buffer, const std::function<int(std::uint32_t)>& owner, int frame);
 
@@ -31,16 +39,24 @@ PreviewFrame draw_preview(const DepthBuffer& buffer, const std::function<int(std
 void draw_points(PreviewFrame& image, std::span<const float> uv, std::span<const std::uint8_t> codes,
                  std::span<const std::vector<float>> trail_uv);
 
-// Collects the preview frames of camera `camera` and writes them as one PNG at finish().
+// Draws the preview frames of camera `camera` as the frame loop classifies them, keeping the
+// trails' ring, and writes them as one PNG at finish().
 class ContactSheetSink : public StreamSink {
  public:
-  ContactSheetSink(int camera, std::string path) : camera_(camera), path_(std::move(path)) {}
-  void write(const FrameChunk& chunk) override;
-  void finish() override;
+  // `frames`: the shot's frame count, which decides the frames drawn.
+  ContactSheetSink(int camera, int frames, const std::string& path, io::StagedOutputs& staged);
+  void camera_frame(const CameraFrame& frame) override;
+  void finish(const SceneResult&) override;
+  std::vector<std::string> files() const override { return {path_}; }
 
  private:
   int camera_;
-  std::string path_;
+  std::string path_, staged_;
+  std::vector<int> frames_;  // preview_frames of the shot
+  // Trails: the uv of every kTrailStride-th point over the last kTrailFrames frames, a ring; NaN
+  // where the point was not valid.
+  std::vector<std::vector<float>> trail_;
+  std::size_t trail_next_ = 0;
   std::vector<PreviewFrame> tiles_;
 };
 

@@ -212,8 +212,8 @@ std::vector<Triangle> scene_triangles(const scene::SceneResult& result, int fram
       }
     }
   }
-  for (std::size_t p = 0; p < result.props.meshes.size(); ++p) {
-    const CharacterMesh& mesh = result.props.meshes[p];
+  for (std::size_t p = 0; p < result.props.character.meshes.size(); ++p) {
+    const CharacterMesh& mesh = result.props.character.meshes[p];
     for (std::size_t t = 0; t < mesh.triangles.size(); t += 3) {
       triangles.push_back({mesh.positions[mesh.triangles[t]].cast<double>(), mesh.positions[mesh.triangles[t + 1]].cast<double>(),
                            mesh.positions[mesh.triangles[t + 2]].cast<double>(), -1 - static_cast<int>(p)});
@@ -284,7 +284,7 @@ TEST(ScenePipelineTest, VisibilityAgreesWithBruteForceRayCastingAcrossActorsAndP
   EXPECT_EQ(std::count(ids.begin(), ids.end(), 0), 1500);
   EXPECT_EQ(std::count(ids.begin(), ids.end(), 1), 1500);
   EXPECT_EQ(std::count_if(ids.begin(), ids.end(), [](std::int64_t id) { return id == -1 || id == -2; }), 1500);
-  const Eigen::Vector3d centre = result.cameras[0].poses[0].centre();
+  const Eigen::Vector3d centre = result.cameras[0].path.poses[0].centre();
   std::size_t checked = 0, agree = 0, by_actor = 0, by_prop = 0, code_agree = 0, hidden = 0, missed = 0;
   for (int f : {0, 15, 30}) {
     const std::vector<Triangle> triangles = scene_triangles(result, f);
@@ -371,8 +371,8 @@ TEST(ScenePipelineTest, MeshPropsFromObjAndGlbAreTurnedScaledAndPlaced) {
   cylinder.scale = 1;
   shot.props = {wedge, cylinder};
   const scene::SceneResult result = scene::run_scene(shot);
-  ASSERT_EQ(result.props.meshes.size(), 2u);
-  const CharacterMesh& w = result.props.meshes[0];
+  ASSERT_EQ(result.props.character.meshes.size(), 2u);
+  const CharacterMesh& w = result.props.character.meshes[0];
   ASSERT_EQ(w.positions.size(), 4u);
   EXPECT_EQ(w.triangles.size(), 9u);
   // OBJ (x, y, z) Y up is (x, -z, y) Z up; yaw 90 turns (x, y) to (-y, x); then x2 and + (5, 0, 0).
@@ -386,7 +386,7 @@ TEST(ScenePipelineTest, MeshPropsFromObjAndGlbAreTurnedScaledAndPlaced) {
   // The GLB at rest, moved by (-5, 1, 0): its box is the character's rest box moved so.
   const Eigen::AlignedBox3d rest = io::load_character(cylinder.path).rest_bounds();
   Eigen::AlignedBox3d placed;
-  for (const Eigen::Vector3f& p : result.props.meshes[1].positions) placed.extend(p.cast<double>());
+  for (const Eigen::Vector3f& p : result.props.character.meshes[1].positions) placed.extend(p.cast<double>());
   EXPECT_LT((placed.min() - (rest.min() + cylinder.position)).norm(), 1e-5);
   EXPECT_LT((placed.max() - (rest.max() + cylinder.position)).norm(), 1e-5);
 

@@ -80,7 +80,7 @@ SceneInput glb_input(const scene::SceneResult& result) {
   for (const scene::PlacedActor& actor : result.actors) {
     input.actors.push_back({actor.name, &actor.retargeted->character, &actor.clip});
   }
-  for (std::size_t c = 0; c < result.cameras.size(); ++c) input.cameras.push_back({result.camera_names[c], &result.cameras[c]});
+  for (std::size_t c = 0; c < result.cameras.size(); ++c) input.cameras.push_back({result.cameras[c].name, &result.cameras[c].path});
   return input;
 }
 
@@ -191,7 +191,7 @@ TEST(SceneGlbTest, PassesTheKhronosValidatorWithZeroErrors) {
   const scene::SceneResult& result = shared_scene();
   const SceneInput input = glb_input(result);
   const fs::path out = test_support::scratch_dir("scene_glb") / "validated.glb";
-  io::write_scene_glb(out.string(), input.actors, &result.props, input.cameras, result.fps);
+  io::write_scene_glb(out.string(), input.actors, &result.props.character, input.cameras, result.fps);
   const fs::path log = fs::path(out).replace_extension(".validator.txt");
   const int status = std::system(("node " + quoted(validator_dir() / "validate.mjs") + " " + quoted(out) + " --all > " +
                                   quoted(log) + " 2>&1").c_str());
@@ -210,11 +210,11 @@ TEST(SceneGlbTest, TheFileReproducesTheToolkitsJointsSkinsAndCameras) {
   const scene::SceneResult& result = shared_scene();
   const SceneInput input = glb_input(result);
   const fs::path out = test_support::scratch_dir("scene_glb") / "scene.glb";
-  io::write_scene_glb(out.string(), input.actors, &result.props, input.cameras, result.fps);
+  io::write_scene_glb(out.string(), input.actors, &result.props.character, input.cameras, result.fps);
   const Glb glb(out);
   const Eigen::Matrix3d to_gltf = y_up_to_z_up().transpose();
 
-  std::size_t expected_nodes = result.props.meshes.size() + result.cameras.size(), expected_channels = 2 * result.cameras.size();
+  std::size_t expected_nodes = result.props.character.meshes.size() + result.cameras.size(), expected_channels = 2 * result.cameras.size();
   for (const scene::PlacedActor& actor : result.actors) {
     const Character& character = actor.retargeted->character;
     expected_nodes += 1 + character.skeleton.joint_count() + character.meshes.size();
@@ -230,7 +230,7 @@ TEST(SceneGlbTest, TheFileReproducesTheToolkitsJointsSkinsAndCameras) {
   EXPECT_EQ(glb.doc["animations"][0]["channels"].size(), expected_channels);
   EXPECT_EQ(glb.doc["cameras"].size(), 2u);
   EXPECT_EQ(glb.doc["scenes"][0]["nodes"].size(),
-            result.actors.size() + result.props.meshes.size() + result.cameras.size() + result.actors[0].retargeted->character.meshes.size() +
+            result.actors.size() + result.props.character.meshes.size() + result.cameras.size() + result.actors[0].retargeted->character.meshes.size() +
                 result.actors[1].retargeted->character.meshes.size());
   const int time_accessor = glb.doc["animations"][0]["samplers"][0]["input"];
   EXPECT_EQ(glb.doc["accessors"][time_accessor]["count"], result.frames);
@@ -293,16 +293,16 @@ TEST(SceneGlbTest, TheFileReproducesTheToolkitsJointsSkinsAndCameras) {
     // glTF cameras look down -Z with +Y up: taken back to the toolkit's world, the path's forward
     // and minus its down axis.
     for (std::size_t c = 0; c < result.cameras.size(); ++c) {
-      const int node = glb.node_named(result.camera_names[c]);
+      const int node = glb.node_named(result.cameras[c].name);
       ASSERT_GE(node, 0);
-      const CameraPose& pose = result.cameras[c].poses[frame];
+      const CameraPose& pose = result.cameras[c].path.poses[frame];
       const Eigen::Matrix3d rotation = y_up_to_z_up() * world[node].topLeftCorner<3, 3>();
       EXPECT_LT((rotation * Eigen::Vector3d(0, 0, -1) - pose.forward()).norm(), 1e-6);
       EXPECT_LT((rotation * Eigen::Vector3d(0, 1, 0) + pose.down()).norm(), 1e-6);
       EXPECT_LT((y_up_to_z_up() * world[node].topRightCorner<3, 1>() - pose.centre()).norm(), 1e-5);
     }
   }
-  const PinholeIntrinsics& k = result.cameras[0].intrinsics[0];
+  const PinholeIntrinsics& k = result.cameras[0].path.intrinsics[0];
   EXPECT_NEAR(glb.doc["cameras"][0]["perspective"]["yfov"].get<double>(), 2 * std::atan(k.height / (2 * k.fy)), 1e-12);
   EXPECT_NEAR(glb.doc["cameras"][0]["perspective"]["aspectRatio"].get<double>(), 960.0 / 540.0, 1e-12);
   EXPECT_FALSE(glb.doc["cameras"][0]["perspective"].contains("zfar"));
@@ -311,8 +311,8 @@ TEST(SceneGlbTest, TheFileReproducesTheToolkitsJointsSkinsAndCameras) {
   const int crate = glb.node_named("crate");
   ASSERT_GE(crate, 0);
   const std::vector<double> p = glb.values(glb.doc["meshes"][glb.doc["nodes"][crate]["mesh"].get<int>()]["primitives"][0]["attributes"]["POSITION"]);
-  for (std::size_t v = 0; v < result.props.meshes[0].positions.size(); ++v) {
-    const Eigen::Vector3d expected = to_gltf * result.props.meshes[0].positions[v].cast<double>();
+  for (std::size_t v = 0; v < result.props.character.meshes[0].positions.size(); ++v) {
+    const Eigen::Vector3d expected = to_gltf * result.props.character.meshes[0].positions[v].cast<double>();
     EXPECT_LT((Eigen::Vector3d(p[v * 3], p[v * 3 + 1], p[v * 3 + 2]) - expected).norm(), 1e-6);
   }
 }
@@ -329,18 +329,18 @@ TEST(SceneGlbTest, InconsistentInputIsRefusedAndNothingIsWritten) {
   shorter.translations.resize(shorter.translations.size() - shorter.translated_joints.size());
   input.actors[1].clip = &shorter;
   std::string message = test_support::message_of<std::invalid_argument>(
-      [&] { io::write_scene_glb(out, input.actors, &result.props, input.cameras, result.fps); });
+      [&] { io::write_scene_glb(out, input.actors, &result.props.character, input.cameras, result.fps); });
   EXPECT_TRUE(contains(message, "actor 'cesium''s clip has 30 frames, but actor 'figure''s clip has 31")) << message;
 
   input = glb_input(result);
   input.actors[1].clip = &result.actors[0].clip;  // another skeleton
   message = test_support::message_of<std::invalid_argument>(
-      [&] { io::write_scene_glb(out, input.actors, &result.props, input.cameras, result.fps); });
+      [&] { io::write_scene_glb(out, input.actors, &result.props.character, input.cameras, result.fps); });
   EXPECT_TRUE(contains(message, "actor 'cesium': the clip is not on the character's skeleton")) << message;
 
   input = glb_input(result);
   message = test_support::message_of<std::invalid_argument>(
-      [&] { io::write_scene_glb(out, input.actors, &result.props, input.cameras, 24); });
+      [&] { io::write_scene_glb(out, input.actors, &result.props.character, input.cameras, 24); });
   EXPECT_TRUE(contains(message, "runs at 30")) << message;
 
   Character broken = result.actors[0].retargeted->character;
@@ -348,14 +348,14 @@ TEST(SceneGlbTest, InconsistentInputIsRefusedAndNothingIsWritten) {
   input = glb_input(result);
   input.actors[0].character = &broken;
   message = test_support::message_of<std::invalid_argument>(
-      [&] { io::write_scene_glb(out, input.actors, &result.props, input.cameras, result.fps); });
+      [&] { io::write_scene_glb(out, input.actors, &result.props.character, input.cameras, result.fps); });
   EXPECT_TRUE(contains(message, "a triangle corner is vertex")) << message;
   EXPECT_TRUE(test_support::files_in(dir).empty());
 
   input = glb_input(result);
   const std::string unwritable = (dir / "no" / "such" / "folder" / "scene.glb").string();
   message = test_support::message_of<io::InputError>(
-      [&] { io::write_scene_glb(unwritable, input.actors, &result.props, input.cameras, result.fps); });
+      [&] { io::write_scene_glb(unwritable, input.actors, &result.props.character, input.cameras, result.fps); });
   EXPECT_TRUE(contains(message, unwritable)) << message;
 }
 

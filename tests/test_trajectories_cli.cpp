@@ -1,7 +1,7 @@
 // `odyssey trajectories` and `odyssey point-cache` end to end, checked against routes the commands
 // do not take:
 // - the motion is rebuilt here from the library calls `odyssey retarget` makes with the same
-//   options (load, resample, maps, retarget, refine), and the points are re-sampled with the same
+//   options (load, resample, maps, the retarget stage), and the points are re-sampled with the same
 //   seed; every tracked point at chosen frames equals forward kinematics plus the plain double
 //   skinning reference (skin_mesh_reference) interpolated with the point's barycentric weights;
 // - every pixel equals the pinhole model written out by hand from the file's own K and [R t],
@@ -38,10 +38,9 @@
 #include "retarget/bone_map.h"
 #include "retarget/canonical.h"
 #include "retarget/parts.h"
-#include "retarget/refine.h"
-#include "retarget/retarget.h"
+#include "retarget/quality.h"
 #include "scene_layouts/camera_rigs.h"
-#include "scene_layouts/streams.h"
+#include "scene_layouts/frame_loop.h"
 #include "skinning/sampling.h"
 
 namespace odyssey {
@@ -86,10 +85,8 @@ Retargeted retarget_like_the_cli(const std::string& bvh, const std::string& char
       retarget::restrict_bone_map(retarget::humanoid_bone_map(source.skeleton, bvh, ""), retarget::Parts::body);
   out.target_map = retarget::restrict_bone_map(retarget::humanoid_bone_map(out.character.skeleton, character_path, ""),
                                                retarget::Parts::body);
-  retarget::RetargetResult result =
-      retarget::retarget_fast(source, source_map, out.character, out.target_map, retarget::RetargetOptions{}, bvh);
-  if (quality != retarget::Quality::fast) retarget::refine(result, source, retarget::default_refine_options(quality));
-  out.clip = result.transfer.clip;
+  out.clip = retarget::retarget(source, source_map, out.character, out.target_map, quality, {}, std::nullopt, bvh)
+                 .result.transfer.clip;
   return out;
 }
 

@@ -1,0 +1,209 @@
+#include "scene_layouts/placement.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "scene_layouts/seeded_uniform.h"
+
+namespace odyssey::scene {
+
+Eigen::Matrix3d yaw_rotation(double degrees) {
+  return Eigen::AngleAxisd(degrees * std::numbers::pi / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+std::vector<Eigen::Vector2d> root_track(const Clip& clip, int root) {
+  std::vector<RigidTransform<double>> world(clip.joint_count());
+  std::vector<Eigen::Vector2d> track(clip.frame_count());
+  for (int f = 0; f < clip.frame_count(); ++f) {
+    clip.world_pose(f, world);
+    track[f] = world[root].translation.head<2>();
+  }
+  return track;
+}
+
+namespace {
+
+double actor_clip_end(const SceneActor& actor, double start, const Clip& clip) {
+  const double trim_end = std::min(actor.trim_end_s.value_or(clip.duration()), clip.duration());
+  return start + std::max(trim_end - actor.trim_start_s, 0.0) / actor.speed;
+}
+
+// The clip times of the scene's frames: frame f at c(f / fps) (scene.h).
+std::vector<double> timeline_times(const SceneActor& actor, double start, const Clip& clip, int frames, double fps) {
+  const double trim_end = std::min(actor.trim_end_s.value_or(clip.duration()), clip.duration());
+  if (actor.trim_start_s > trim_end) {
+    throw std::invalid_argument("actor '" + actor.name + "': trim starts at " + std::to_string(actor.trim_start_s) +
+                                " s, after the clip's end at " + std::to_string(clip.duration()) + " s");
+  }
+  std::vector<double> times(frames);
+  for (int f = 0; f < frames; ++f) {
+    times[f] = std::clamp(actor.trim_start_s + actor.speed * (f / fps - start), actor.trim_start_s, trim_end);
+  }
+  return times;
+}
+
+// Turns the whole clip by `rotation` about the origin, then moves it by `shift`: every root joint's
+// local transform (its world transform) T becomes (R, d) T.
+void move_clip(Clip& clip, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& shift) {
+  const int joints = clip.joint_count();
+  const int frames = clip.frame_count();
+  std::vector<int> translated = clip.translated_joints;
+  for (int j = 0; j < joints; ++j) {
+    if (clip.skeleton.parent(j) == -1 && std::find(translated.begin(), translated.end(), j) == translated.end()) {
+      translated.push_back(j);
+    }
+  }
+  std::vector<Eigen::Vector3d> translations(std::size_t(frames) * translated.size());
+  const std::size_t old_k = clip.translated_joints.size();
+  for (int f = 0; f < frames; ++f) {
+    for (std::size_t t = 0; t < translated.size(); ++t) {
+      translations[f * translated.size() + t] =
+          t < old_k ? clip.translations[f * old_k + t] : clip.skeleton.rest_offsets()[translated[t]];
+    }
+  }
+  clip.translated_joints = translated;
+  clip.translations = std::move(translations);
+  const Eigen::Quaterniond q(rotation);
+  for (int f = 0; f < frames; ++f) {
+    for (std::size_t t = 0; t < translated.size(); ++t) {
+      const int j = translated[t];
+      if (clip.skeleton.parent(j) != -1) continue;
+      Eigen::Vector3d& translation = clip.translations[f * translated.size() + t];
+      translation = rotation * translation + shift;
+      Eigen::Quaterniond& r = clip.rotations[std::size_t(f) * joints + j];
+      r = (q * r).normalized();
+    }
+  }
+}
+
+// The direction the actor faces in a pose (degrees from +x, counter-clockwise seen from above):
+// its rest facing (camera_rigs.h, actor_source.h) turned as its root (the pelvis) has turned from rest.
+double heading_deg(const ActorMotion& actor, std::span<const RigidTransform<double>> world) {
+  const Skeleton& skeleton = actor.character.skeleton;
+  const int root = actor.root_joint;
+  const Eigen::Matrix3d turn = world[root].rotation * skeleton.rest_world()[root].rotation.transpose();
+  const Eigen::Vector3d facing = turn * actor.rest_facing;
+  return std::atan2(facing.y(), facing.x()) * 180 / std::numbers::pi;
+}
+
+// The first frame where two footprints overlap, or -1.
+int overlap_frame(const std::vector<Eigen::Vector2d>& a, double radius_a, const std::vector<Eigen::Vector2d>& b,
+                  double radius_b) {
+  for (std::size_t f = 0; f < a.size(); ++f) {
+    if ((a[f] - b[f]).norm() < radius_a + radius_b) return static_cast<int>(f);
+  }
+  return -1;
+}
+
+// Where an actor's root goes over the shot, and how close another may come (its radius).
+struct Footprint {
+  std::vector<Eigen::Vector2d> track;
+  double radius = 0;
+};
+
+// The index of the first footprint `candidate` overlaps, and the frame (-1 and -1: none).
+int first_overlap(const Footprint& candidate, const std::vector<Footprint>& placed, int& frame) {
+  for (std::size_t b = 0; b < placed.size(); ++b) {
+    frame = overlap_frame(candidate.track, candidate.radius, placed[b].track, placed[b].radius);
+    if (frame >= 0) return static_cast<int>(b);
+  }
+  frame = -1;
+  return -1;
+}
+
+// Actor a's clip timed onto the shot's frames and placed as its spec says (as recorded, at a fixed
+// spot, or drawn in its region), clear of the actors placed before it; returns its footprint.
+Footprint place_actor(const Scene& scene, std::size_t a, int frames, const std::vector<Footprint>& placed, PlacedActor& actor) {
+  const SceneActor& spec = scene.actors[a];
+  const ActorMotion& motion = *actor.motion;
+  const std::vector<double> times = timeline_times(spec, actor.start_s, motion.clip, frames, scene.fps);
+  const Clip timed = motion.clip.sampled_at(times, scene.fps);
+  if (motion.vertex_animation) actor.vertex_animation = motion.vertex_animation->sampled_at(times, scene.fps);
+  const int root = motion.root_joint;
+  std::vector<RigidTransform<double>> world(timed.joint_count());
+  timed.world_pose(0, world);
+  const Eigen::Vector3d start_root(world[root].translation.x(), world[root].translation.y(), 0);
+  const double start_heading = heading_deg(motion, world);
+  Footprint footprint;
+  footprint.radius = 0.15 * motion.character.rest_bounds().sizes().z();
+  // Turning by yaw - start_heading about the start root makes the actor face `yaw` there.
+  const auto place = [&](double x, double y, double yaw) {
+    actor.clip = timed;
+    const Eigen::Matrix3d rotation = yaw_rotation(yaw - start_heading);
+    move_clip(actor.clip, rotation, Eigen::Vector3d(x, y, 0) - rotation * start_root);
+    actor.x = x;
+    actor.y = y;
+    actor.yaw_deg = yaw;
+    actor.turn_deg = yaw - start_heading;
+    footprint.track = root_track(actor.clip, root);
+  };
+  const Placement& placement = spec.placement;
+  int frame = -1;
+  if (placement.kind == Placement::Kind::random) {
+    SeededUniform draw(scene.seed, a);
+    constexpr int kDraws = 200;
+    int other = -1;
+    for (int attempt = 0; attempt < kDraws; ++attempt) {
+      place(draw.between(placement.region.min().x(), placement.region.max().x()),
+            draw.between(placement.region.min().y(), placement.region.max().y()), draw.between(0, 360));
+      other = first_overlap(footprint, placed, frame);
+      if (other < 0) break;
+    }
+    if (other >= 0) {
+      throw std::invalid_argument("actor '" + spec.name + "': no placement in its region keeps it clear of actor '" +
+                                  scene.actors[other].name + "' (" + std::to_string(kDraws) + " draws); widen the region");
+    }
+    return footprint;
+  }
+  if (placement.kind == Placement::Kind::as_recorded) {
+    actor.clip = timed;
+    actor.x = start_root.x();
+    actor.y = start_root.y();
+    actor.yaw_deg = start_heading;
+    footprint.track = root_track(actor.clip, root);
+  } else {
+    place(placement.x, placement.y, placement.yaw_deg);
+  }
+  if (const int other = first_overlap(footprint, placed, frame); other >= 0) {
+    throw std::invalid_argument("actors '" + scene.actors[other].name + "' and '" + spec.name + "' overlap at frame " +
+                                std::to_string(frame) + ": their roots come within " +
+                                std::to_string(placed[other].radius + footprint.radius) +
+                                " m; place them apart or shift them in time");
+  }
+  return footprint;
+}
+
+}  // namespace
+
+// Each actor's start on the timeline (drawn from its range where it has one), and the shot's
+// frame count: the scene's seconds, or until the last clip ends.
+int time_actors(const Scene& scene, std::vector<PlacedActor>& actors) {
+  double end = 0;
+  for (std::size_t a = 0; a < scene.actors.size(); ++a) {
+    const SceneActor& spec = scene.actors[a];
+    actors[a].start_s = spec.start_s;
+    if (spec.start_range) {
+      SeededUniform draw(scene.seed, 3000 + a);
+      actors[a].start_s = draw.between(spec.start_range->first, spec.start_range->second);
+    }
+    end = std::max(end, actor_clip_end(spec, actors[a].start_s, actors[a].motion->clip));
+  }
+  const double seconds = scene.seconds.value_or(end);
+  // Every actor's clip is held on the timeline (J quaternions and a root a frame): a shot of days
+  // is a typo, refused before anything is allocated.
+  constexpr double kMaxFrames = 10'000'000;
+  if (seconds * scene.fps >= kMaxFrames) {
+    throw std::invalid_argument("scene: " + std::to_string(seconds) + " s at " + std::to_string(scene.fps) +
+                                " fps is more than 10,000,000 frames");
+  }
+  return static_cast<int>(std::floor(seconds * scene.fps * (1 + 1e-9) + 1e-9)) + 1;
+}
+
+void place_actors(const Scene& scene, int frames, std::vector<PlacedActor>& actors) {
+  std::vector<Footprint> placed;
+  for (std::size_t a = 0; a < scene.actors.size(); ++a) placed.push_back(place_actor(scene, a, frames, placed, actors[a]));
+}
+
+}  // namespace odyssey::scene
