@@ -728,15 +728,14 @@ void FrameBuilder::write(const FramePose& pose, const MotionPlan& plan, Clip& ou
     if (model_.placement[j] == Placement::child && model_.unknown_of[j] < 0 && !flattened_[j] && j != model_.pelvis) {
       rotation[j] = reference_local(j);
     } else {
-      rotation[j] = (p < 0 ? world[j].rotation : world[p].rotation.conjugate() * world[j].rotation).normalized();
+      rotation[j] = local_rotation_from_world(world, j, p);
     }
   }
   const std::size_t tracks = out.translated_joints.size();
   Eigen::Vector3d* translation = &out.translations[std::size_t(frame_) * tracks];
   for (std::size_t t = 0; t < tracks; ++t) {
     const int j = out.translated_joints[t];
-    const int p = skeleton.parent(j);
-    translation[t] = p < 0 ? world[j].translation : Eigen::Vector3d(world[p].rotation.conjugate() * (world[j].translation - world[p].translation));
+    translation[t] = local_translation_from_world(world, j, skeleton.parent(j));
   }
 }
 

@@ -488,9 +488,7 @@ void FastTransfer::write_frame(int frame, const Workspace& work, Clip& out) cons
   Eigen::Quaterniond* out_rotation = &out.rotations[std::size_t(frame) * joints];
   const Eigen::Quaterniond* previous = frame > 0 ? out_rotation - joints : nullptr;
   for (int j = 0; j < joints; ++j) {
-    const int p = rules_[j].parent;
-    Eigen::Quaterniond local = p < 0 ? world[j].rotation : world[p].rotation.conjugate() * world[j].rotation;
-    local.normalize();
+    Eigen::Quaterniond local = local_rotation_from_world(world, j, rules_[j].parent);
     const double reference_sign = previous ? local.dot(previous[j]) : local.w();
     if (reference_sign < 0) local.coeffs() = -local.coeffs();
     out_rotation[j] = local;
@@ -499,9 +497,7 @@ void FastTransfer::write_frame(int frame, const Workspace& work, Clip& out) cons
   Eigen::Vector3d* out_translation = out.translations.data() + std::size_t(frame) * tracks;
   for (std::size_t t = 0; t < tracks; ++t) {
     const int j = translated_joints_[t];
-    const int p = rules_[j].parent;
-    out_translation[t] = p < 0 ? world[j].translation
-                               : Eigen::Vector3d(world[p].rotation.conjugate() * (world[j].translation - world[p].translation));
+    out_translation[t] = local_translation_from_world(world, j, rules_[j].parent);
   }
 }
 

@@ -53,4 +53,17 @@ struct Clip {
   Clip sampled_at(std::span<const double> times, double target_fps) const;
 };
 
+// Joint `joint`'s local rotation in a clip frame from world transforms (the inverse of
+// Clip::world_pose): W(parent)^-1 W(joint), normalised; a root's (parent < 0) is its world rotation.
+inline Eigen::Quaterniond local_rotation_from_world(std::span<const QuaternionTransform<double>> world, int joint, int parent) {
+  const Eigen::Quaterniond& rotation = world[joint].rotation;
+  return (parent < 0 ? rotation : world[parent].rotation.conjugate() * rotation).normalized();
+}
+
+// Its local translation likewise: W(parent)^-1 (P(joint) - P(parent)); a root's is its position.
+inline Eigen::Vector3d local_translation_from_world(std::span<const QuaternionTransform<double>> world, int joint, int parent) {
+  if (parent < 0) return world[joint].translation;
+  return world[parent].rotation.conjugate() * (world[joint].translation - world[parent].translation);
+}
+
 }  // namespace odyssey
