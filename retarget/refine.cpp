@@ -569,18 +569,6 @@ long accurate_pass(const Refinement& refinement, Clip& out, int& span_count) {
   return pass.run(out, span_count);
 }
 
-// Each joint's quaternion sign made continuous along the clip (the first frame with w >= 0).
-void continuous_signs(Clip& clip) {
-  const int joints = clip.joint_count();
-  for (int f = 0; f < clip.frame_count(); ++f) {
-    Eigen::Quaterniond* now = &clip.rotations[std::size_t(f) * joints];
-    for (int j = 0; j < joints; ++j) {
-      const double reference = f > 0 ? now[j].dot(now[j - joints]) : now[j].w();
-      if (reference < 0) now[j].coeffs() = -now[j].coeffs();
-    }
-  }
-}
-
 void check_options(const RefineOptions& options) {
   const auto fail = [](const std::string& what) { throw std::invalid_argument("refine options: " + what); };
   if (options.threads < 1) fail("threads must be at least 1, got " + std::to_string(options.threads));
@@ -683,7 +671,7 @@ RefineSummary refine(RetargetResult& result, const Clip& source, const RefineOpt
   summary.iterations = balanced_pass(refinement, out, summary.windows);
   if (options.quality == Quality::accurate) summary.iterations += accurate_pass(refinement, out, summary.spans);
   summary.solve_seconds = seconds_since(solve_start);
-  continuous_signs(out);
+  out.make_signs_continuous();
 
   RetargetMetrics metrics = result_metrics(rig, source, result.source_feet, out, result.target_feet, result.contacts,
                                            result.report.settings.metric_thresholds);

@@ -371,6 +371,7 @@ TransferResult FastTransfer::run(const Clip& source, const Feet& source_feet, co
     write_frame(f, work, result.clip);
     measure_feet(f, source_feet, work);
   }
+  result.clip.make_signs_continuous();
   move_root(work, contacts, result);
   return result;
 }
@@ -480,19 +481,13 @@ Eigen::Quaterniond FastTransfer::driven_rotation(int joint, const Workspace& wor
   return reference * rule.reference_to_joint;
 }
 
-// Frame `frame` of the output: local rotations W(parent)^-1 W(t), each of the sign nearer the
-// previous frame's (w >= 0 in the first), and the translated joints' W(parent)^-1 (P(t) - P(parent)).
+// Frame `frame` of the output: local rotations W(parent)^-1 W(t) and the translated joints'
+// W(parent)^-1 (P(t) - P(parent)).
 void FastTransfer::write_frame(int frame, const Workspace& work, Clip& out) const {
   const int joints = static_cast<int>(rules_.size());
   const std::vector<QuaternionTransform<double>>& world = work.target.world;
   Eigen::Quaterniond* out_rotation = &out.rotations[std::size_t(frame) * joints];
-  const Eigen::Quaterniond* previous = frame > 0 ? out_rotation - joints : nullptr;
-  for (int j = 0; j < joints; ++j) {
-    Eigen::Quaterniond local = local_rotation_from_world(world, j, rules_[j].parent);
-    const double reference_sign = previous ? local.dot(previous[j]) : local.w();
-    if (reference_sign < 0) local.coeffs() = -local.coeffs();
-    out_rotation[j] = local;
-  }
+  for (int j = 0; j < joints; ++j) out_rotation[j] = local_rotation_from_world(world, j, rules_[j].parent);
   const std::size_t tracks = translated_joints_.size();
   Eigen::Vector3d* out_translation = out.translations.data() + std::size_t(frame) * tracks;
   for (std::size_t t = 0; t < tracks; ++t) {

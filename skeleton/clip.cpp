@@ -42,6 +42,14 @@ void Clip::validate() const {
   }
 }
 
+void Clip::make_signs_continuous() {
+  const int joints = joint_count();
+  for (int f = 0; f < frame_count(); ++f) {
+    Eigen::Quaterniond* now = &rotations[std::size_t(f) * joints];
+    for (int j = 0; j < joints; ++j) now[j] = sign_aligned(now[j], f > 0 ? now[j - joints] : Eigen::Quaterniond::Identity());
+  }
+}
+
 namespace {
 
 template <class Transform>

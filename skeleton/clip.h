@@ -32,6 +32,11 @@ struct Clip {
   // non-finite value (naming the first bad frame and joint).
   void validate() const;
 
+  // Flips quaternion signs (q and -q are the same rotation) so that each joint's track is
+  // continuous: every frame's rotation is sign_aligned (rotation.h) with the previous frame's, the
+  // first frame's with the identity (w >= 0).
+  void make_signs_continuous();
+
   // Local transforms of one frame (rest offsets where not animated), rotations as matrices or as
   // the clip's quaternions.
   void local_pose(int frame, std::span<RigidTransform<double>> local) const;
