@@ -158,11 +158,11 @@ void add_retarget_settings(Args& args) {
               "rest")
       .option("weights", "LIST",
               "refinement weights over the quality's defaults, NAME=VALUE separated by commas; names: " + weight_names() +
-                  " (defaults and units: README, retargeting conventions)")
+                  " (defaults and units: docs/retargeting.md)")
       .option("contact-lift", "M|off",
               "let a planted foot joint rise with the performer's once the performer's is more than M metres above "
               "its ground (at the performer's size; the legs bend less at toe-off, the foot leaves the floor earlier; "
-              "README, retargeting conventions); off holds it on the floor through the contact (default: 0.03)");
+              "docs/retargeting.md); off holds it on the floor through the contact (default: 0.03)");
   add_bvh_units_option(args);
   add_betas_option(args);
 }

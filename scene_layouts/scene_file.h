@@ -1,4 +1,4 @@
-// Scene files: a shot as JSON (README, "Scene files", documents every key; `odyssey scene
+// Scene files: a shot as JSON (docs/scenes.md documents every key; `odyssey scene
 // --example` prints one that runs). Relative paths are relative to the file; a path starting with
 // "data:" names a file of the bundled data folder (the project's data/, or ODYSSEY_DATA_DIR when
 // set), so an example runs from any directory. Every value is checked, unknown keys are refused,
