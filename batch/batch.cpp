@@ -123,7 +123,8 @@ std::vector<std::string> job_inputs(const Job& job) {
       if (!prop.path.empty()) files.push_back(prop.path);
     }
     for (const scene::SceneCamera& camera : file.scene.cameras) {
-      if (!camera.path.empty()) files.push_back(camera.path);
+      if (const auto* rig = std::get_if<scene::FileRig>(&camera.rig)) files.push_back(rig->path);
+      if (const auto* rig = std::get_if<scene::ImportedRig>(&camera.rig)) files.push_back(rig->path);
     }
   }
   std::sort(files.begin(), files.end());

@@ -114,8 +114,7 @@ std::optional<scene::SceneCamera> camera_from_options(const Args& args) {
   camera.handheld = handheld_from_options(args);
   if (kind == "file") {
     if (!args.has("camera-file")) throw UsageError("--camera file needs --camera-file");
-    camera.kind = scene::SceneCamera::Kind::file;
-    camera.path = args.get("camera-file");
+    camera.rig = scene::FileRig{args.get("camera-file")};
     return camera;
   }
   const bool imported = kind == "realestate10k" || kind == "colmap";
@@ -137,55 +136,79 @@ std::optional<scene::SceneCamera> camera_from_options(const Args& args) {
   if (!(camera.hfov_deg > 0 && camera.hfov_deg < 180)) {
     throw UsageError("--hfov expects degrees between 0 and 180, got " + args.get("hfov"));
   }
-  if (args.has("camera-target")) camera.target = parse_vector3(args, "camera-target");
+  // Parsed for every kind (an ego camera takes none, but a malformed one is still refused).
+  std::optional<Eigen::Vector3d> target;
+  if (args.has("camera-target")) target = parse_vector3(args, "camera-target");
   if (kind == "static" || kind == "dolly-zoom" || kind == "zoom") {
-    camera.kind = kind == "static" ? scene::SceneCamera::Kind::fixed
-                  : kind == "zoom" ? scene::SceneCamera::Kind::zoom
-                                   : scene::SceneCamera::Kind::dolly_zoom;
-    if (args.has("camera-position")) camera.position = parse_vector3(args, "camera-position");
-    if (kind == "dolly-zoom" && args.has("camera-end-distance")) camera.end_distance = positive(args, "camera-end-distance");
-    if (kind == "zoom" && args.has("hfov-end")) {
-      camera.hfov_end_deg = args.get_double("hfov-end");
-      if (!(*camera.hfov_end_deg > 0 && *camera.hfov_end_deg < 180)) {
-        throw UsageError("--hfov-end expects degrees between 0 and 180, got " + args.get("hfov-end"));
+    std::optional<Eigen::Vector3d> position;
+    if (args.has("camera-position")) position = parse_vector3(args, "camera-position");
+    if (kind == "static") {
+      scene::StaticRig rig;
+      rig.position = position;
+      rig.target = target;
+      camera.rig = rig;
+    } else if (kind == "dolly-zoom") {
+      scene::DollyZoomRig rig;
+      rig.position = position;
+      rig.target = target;
+      if (args.has("camera-end-distance")) rig.end_distance = positive(args, "camera-end-distance");
+      camera.rig = rig;
+    } else {
+      scene::ZoomRig rig;
+      rig.position = position;
+      rig.target = target;
+      if (args.has("hfov-end")) {
+        rig.hfov_end_deg = args.get_double("hfov-end");
+        if (!(*rig.hfov_end_deg > 0 && *rig.hfov_end_deg < 180)) {
+          throw UsageError("--hfov-end expects degrees between 0 and 180, got " + args.get("hfov-end"));
+        }
       }
+      camera.rig = rig;
     }
   } else if (kind == "swoop") {
-    camera.kind = scene::SceneCamera::Kind::swoop;
-    if (args.has("camera-radius")) camera.radius = positive(args, "camera-radius");
-    if (args.has("camera-height")) camera.height_m = args.get_double("camera-height");
-    if (args.has("camera-height-end")) camera.height_end_m = args.get_double("camera-height-end");
-    camera.sweep_deg = args.get_double("camera-sweep");
-    if (!std::isfinite(camera.sweep_deg)) throw UsageError("--camera-sweep must be finite");
+    scene::SwoopRig rig;
+    rig.target = target;
+    if (args.has("camera-radius")) rig.radius = positive(args, "camera-radius");
+    if (args.has("camera-height")) rig.height_m = args.get_double("camera-height");
+    if (args.has("camera-height-end")) rig.height_end_m = args.get_double("camera-height-end");
+    rig.sweep_deg = args.get_double("camera-sweep");
+    if (!std::isfinite(rig.sweep_deg)) throw UsageError("--camera-sweep must be finite");
+    camera.rig = rig;
   } else if (imported) {
-    camera.kind = kind == "colmap" ? scene::SceneCamera::Kind::colmap : scene::SceneCamera::Kind::realestate10k;
-    camera.path = args.get("camera-file");
-    camera.extent_m = positive(args, "camera-extent");
+    scene::ImportedRig rig;
+    rig.format = kind == "colmap" ? scene::ImportedRig::Format::colmap : scene::ImportedRig::Format::realestate10k;
+    rig.target = target;
+    rig.path = args.get("camera-file");
+    rig.extent_m = positive(args, "camera-extent");
     const std::string anchor = args.get("camera-anchor");
     if (anchor != "centroid" && anchor != "focus") throw UsageError("--camera-anchor expects centroid or focus, got '" + anchor + "'");
-    camera.anchor_focus = anchor == "focus";
-    camera.speed = positive(args, "camera-speed");
-    camera.source_fps = positive(args, "camera-fps");
-    if (args.has("camera-height")) camera.height_m = args.get_double("camera-height");
+    rig.anchor_focus = anchor == "focus";
+    rig.speed = positive(args, "camera-speed");
+    rig.source_fps = positive(args, "camera-fps");
+    if (args.has("camera-height")) rig.height_m = args.get_double("camera-height");
     if (args.has("camera-aim")) {
-      camera.aim_smoothing_s = args.get_double("camera-aim");
-      if (!(*camera.aim_smoothing_s >= 0) || !std::isfinite(*camera.aim_smoothing_s)) {
+      rig.aim_smoothing_s = args.get_double("camera-aim");
+      if (!(*rig.aim_smoothing_s >= 0) || !std::isfinite(*rig.aim_smoothing_s)) {
         throw UsageError("--camera-aim must be 0 or more seconds");
       }
     }
+    camera.rig = rig;
   } else if (kind == "orbit") {
-    camera.kind = scene::SceneCamera::Kind::orbit;
-    if (args.has("camera-radius")) camera.radius = positive(args, "camera-radius");
-    if (args.has("camera-height")) camera.height_m = args.get_double("camera-height");
-    camera.period_s = args.get_double("camera-period");
-    if (camera.period_s == 0 || !std::isfinite(camera.period_s)) throw UsageError("--camera-period must not be 0");
+    scene::OrbitRig rig;
+    rig.target = target;
+    if (args.has("camera-radius")) rig.radius = positive(args, "camera-radius");
+    if (args.has("camera-height")) rig.height_m = args.get_double("camera-height");
+    rig.period_s = args.get_double("camera-period");
+    if (rig.period_s == 0 || !std::isfinite(rig.period_s)) throw UsageError("--camera-period must not be 0");
+    camera.rig = rig;
   } else {
-    camera.kind = scene::SceneCamera::Kind::ego;
-    camera.actor = 0;
-    if (args.has("eye-forward")) camera.eye_forward = args.get_double("eye-forward");
-    if (args.has("eye-up")) camera.eye_up = args.get_double("eye-up");
-    camera.smoothing_s = args.get_double("camera-smooth");
-    if (!(camera.smoothing_s >= 0)) throw UsageError("--camera-smooth must be 0 or more seconds");
+    scene::EgoRig rig;
+    rig.actor = 0;
+    if (args.has("eye-forward")) rig.eye_forward = args.get_double("eye-forward");
+    if (args.has("eye-up")) rig.eye_up = args.get_double("eye-up");
+    rig.smoothing_s = args.get_double("camera-smooth");
+    if (!(rig.smoothing_s >= 0)) throw UsageError("--camera-smooth must be 0 or more seconds");
+    camera.rig = rig;
   }
   return camera;
 }

@@ -107,10 +107,10 @@ int run_demo(const std::vector<std::string>& arguments) {
   actor.retarget.bvh_metres_per_unit = io::kCmuMetresPerUnit;
   walk_scene.actors.push_back(actor);
   scene::SceneCamera ego;
-  ego.kind = scene::SceneCamera::Kind::ego;
+  ego.rig = scene::EgoRig{};
   ego.name = "ego";
   scene::SceneCamera orbit;
-  orbit.kind = scene::SceneCamera::Kind::orbit;
+  orbit.rig = scene::OrbitRig{};
   orbit.name = "orbit";
   walk_scene.cameras = {ego, orbit};
   scene::SceneOutputs& outputs = walk_scene.outputs;

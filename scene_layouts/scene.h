@@ -30,6 +30,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "scene_layouts/actor.h"
@@ -76,49 +77,95 @@ struct Prop {
   double yaw_deg = 0, scale = 1;
 };
 
-struct SceneCamera {
-  // fixed is the file format's "static"; realestate10k and colmap are tracks from real video
-  // (scene_layouts/imported_camera.h); swoop, dolly_zoom and zoom are cinematic rigs (camera_rigs.h).
-  enum class Kind { fixed, orbit, ego, file, swoop, dolly_zoom, zoom, realestate10k, colmap };
-  Kind kind = Kind::fixed;
-  std::string name;  // unique in the scene; names its output files
-  int width = 960, height = 540;
-  double hfov_deg = 80;
-  // Static and orbit; unset values follow the actors' framing (pipeline.h).
+// Camera kinds: each holds only its own settings; SceneCamera holds what every camera has. Unset
+// positions and targets follow the actors' framing (shot_cameras.h).
+//
+// Static (the file format's "static"): fixed, looking at the target.
+struct StaticRig {
   std::optional<Eigen::Vector3d> position, target;
+  // Seeded jitter of the centre (metres, each axis uniform in [-jitter, jitter], drawn once per
+  // camera from the scene's seed).
+  double jitter_m = 0;
+};
+
+// Orbit: circling the target.
+struct OrbitRig {
+  std::optional<Eigen::Vector3d> target;
   std::optional<double> radius, height_m, start_angle_deg;
   double period_s = 10;
-  // Ego: on actor `actor`'s head; unset offsets are 0.06 and 0.047 of its rest height.
+  // Seeded jitter of the target and height, drawn as a static camera's.
+  double jitter_m = 0;
+};
+
+// Ego: on actor `actor`'s head; unset offsets are 0.06 and 0.047 of its rest height.
+struct EgoRig {
   int actor = 0;
   std::optional<double> eye_forward, eye_up;
   double smoothing_s = 0;
-  // File: a camera path JSON with one frame per scene frame; realestate10k: the camera file;
-  // colmap: the text model's folder.
+};
+
+// File: a camera path JSON with one frame per scene frame.
+struct FileRig {
   std::string path;
-  // Swoop: from height_m (default 0.9 of the tallest actor) to height_end_m (default 2.5 of it)
-  // while turning sweep_deg about the target.
+};
+
+// Swoop (camera_rigs.h): from height_m (default 0.9 of the tallest actor) to height_end_m (default
+// 2.5 of it) while turning sweep_deg about the target.
+struct SwoopRig {
+  std::optional<Eigen::Vector3d> target;
+  std::optional<double> radius, height_m, start_angle_deg;
   std::optional<double> height_end_m;
   double sweep_deg = 90;
-  // Dolly-zoom: distance from the target at the last frame (default half the first's).
+};
+
+// Dolly-zoom (camera_rigs.h): distance from the target at the last frame (default half the first's).
+struct DollyZoomRig {
+  std::optional<Eigen::Vector3d> position, target;
   std::optional<double> end_distance;
-  // Zoom: horizontal field of view at the last frame (default half of hfov_deg).
+};
+
+// Zoom (camera_rigs.h): horizontal field of view at the last frame (default half of hfov_deg).
+struct ZoomRig {
+  std::optional<Eigen::Vector3d> position, target;
   std::optional<double> hfov_end_deg;
-  // Imported tracks: the circle the path fits (height_m, when set, is the centres' mean height;
-  // start_angle the direction to the first camera), track seconds per scene second, the rate of
-  // COLMAP's images, the track's up (default estimated), and, when set, the sigma in seconds of
-  // the smoothed look-at point on the actors the camera is re-aimed at.
+};
+
+// A track from real video (scene_layouts/imported_camera.h): a RealEstate10K camera file or a
+// COLMAP text model's folder. The circle the path fits (target, when set, is its centre; height_m,
+// when set, the centres' mean height; start_angle the direction to the first camera), track
+// seconds per scene second, the rate of COLMAP's images, the track's up (default estimated), and,
+// when set, the sigma in seconds of the smoothed look-at point on the actors the camera is re-aimed
+// at.
+struct ImportedRig {
+  enum class Format { realestate10k, colmap };
+  Format format = Format::realestate10k;
+  std::string path;  // realestate10k: the camera file; colmap: the text model's folder
+  std::optional<Eigen::Vector3d> target;
+  std::optional<double> height_m, start_angle_deg;
   double extent_m = 8;
   bool anchor_focus = false;  // anchor the path on its cameras' focus, not its centroid
   double speed = 1;
-  double source_fps = 30;
+  double source_fps = 30;  // colmap
   std::optional<Eigen::Vector3d> up;
   std::optional<double> aim_smoothing_s;
-  // Seeded handheld shake on top of any of the above (drawn from the scene's seed).
-  std::optional<HandheldOptions> handheld;
-  // Seeded jitter (metres, each axis uniform in [-jitter, jitter], drawn once per camera from the
-  // scene's seed) of a static camera's centre, or of an orbit's target and height.
-  double jitter_m = 0;
 };
+
+using CameraRig = std::variant<StaticRig, OrbitRig, EgoRig, FileRig, SwoopRig, DollyZoomRig, ZoomRig, ImportedRig>;
+
+struct SceneCamera {
+  std::string name;  // unique in the scene; names its output files
+  int width = 960, height = 540;
+  double hfov_deg = 80;  // imported tracks and files carry their own intrinsics
+  CameraRig rig;         // default: a static camera framed on the actors
+  // Seeded handheld shake on top of any rig (drawn from the scene's seed).
+  std::optional<HandheldOptions> handheld;
+};
+
+// The actor an ego camera rides on, or -1 for the other kinds.
+inline int rides_on(const SceneCamera& camera) {
+  const EgoRig* ego = std::get_if<EgoRig>(&camera.rig);
+  return ego ? ego->actor : -1;
+}
 
 // Files to write; an empty path asks for nothing. Vectors are empty or one entry per camera
 // (trajectories, camera paths) or per actor (point caches, with the rest OBJ beside each).

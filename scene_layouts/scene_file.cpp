@@ -1,5 +1,6 @@
 #include "scene_layouts/scene_file.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <set>
@@ -254,6 +255,149 @@ Prop read_prop(const JsonValue& item, std::size_t index, const fs::path& base) {
   return prop;
 }
 
+// What a camera kind's reader may need beside the camera's JSON object.
+struct CameraContext {
+  const std::vector<SceneActor>& actors;
+  const fs::path& base;
+};
+
+// The camera kinds' readers. Each reads only its own keys (the caller has checked that the object
+// holds no others), in the order the keys are listed in read_camera's allow_only.
+CameraRig read_static(const JsonValue& item, const CameraContext&) {
+  StaticRig rig;
+  if (const auto value = item.find("position")) rig.position = vector3(*value);
+  if (const auto value = item.find("target")) rig.target = vector3(*value);
+  if (const auto value = item.find("jitter")) rig.jitter_m = value->number_in(0, 1e3);
+  return rig;
+}
+
+CameraRig read_orbit(const JsonValue& item, const CameraContext&) {
+  OrbitRig rig;
+  if (const auto value = item.find("target")) rig.target = vector3(*value);
+  if (const auto value = item.find("radius")) rig.radius = value->number_in(1e-6, 1e6);
+  if (const auto value = item.find("height_m")) rig.height_m = value->number();
+  if (const auto value = item.find("period")) {
+    rig.period_s = value->number();
+    if (rig.period_s == 0) value->fail("a period of 0 seconds");
+  }
+  if (const auto value = item.find("start_angle")) rig.start_angle_deg = value->number();
+  if (const auto value = item.find("jitter")) rig.jitter_m = value->number_in(0, 1e3);
+  return rig;
+}
+
+CameraRig read_ego(const JsonValue& item, const CameraContext& context) {
+  EgoRig rig;
+  if (const auto value = item.find("actor")) {
+    if (value->is_string()) {
+      const std::string name = value->string();
+      rig.actor = -1;
+      for (std::size_t a = 0; a < context.actors.size(); ++a) {
+        if (context.actors[a].name == name) rig.actor = static_cast<int>(a);
+      }
+      if (rig.actor < 0) value->fail("no actor is called '" + name + "'");
+    } else {
+      rig.actor = static_cast<int>(value->integer(0, static_cast<long long>(context.actors.size()) - 1));
+    }
+  }
+  if (const auto value = item.find("eye_forward")) rig.eye_forward = value->number();
+  if (const auto value = item.find("eye_up")) rig.eye_up = value->number();
+  if (const auto value = item.find("smoothing")) rig.smoothing_s = value->number_in(0, 1e3);
+  return rig;
+}
+
+CameraRig read_file(const JsonValue& item, const CameraContext& context) {
+  return FileRig{resolve(item.member("path"), context.base)};
+}
+
+CameraRig read_swoop(const JsonValue& item, const CameraContext&) {
+  SwoopRig rig;
+  if (const auto value = item.find("target")) rig.target = vector3(*value);
+  if (const auto value = item.find("radius")) rig.radius = value->number_in(1e-6, 1e6);
+  if (const auto value = item.find("height_m")) rig.height_m = value->number();
+  if (const auto value = item.find("start_angle")) rig.start_angle_deg = value->number();
+  if (const auto value = item.find("height_end")) rig.height_end_m = value->number();
+  if (const auto value = item.find("sweep")) rig.sweep_deg = value->number_in(-1e5, 1e5);
+  return rig;
+}
+
+CameraRig read_dolly_zoom(const JsonValue& item, const CameraContext&) {
+  DollyZoomRig rig;
+  if (const auto value = item.find("position")) rig.position = vector3(*value);
+  if (const auto value = item.find("target")) rig.target = vector3(*value);
+  if (const auto value = item.find("end_distance")) rig.end_distance = value->number_in(1e-6, 1e6);
+  return rig;
+}
+
+CameraRig read_zoom(const JsonValue& item, const CameraContext&) {
+  ZoomRig rig;
+  if (const auto value = item.find("position")) rig.position = vector3(*value);
+  if (const auto value = item.find("target")) rig.target = vector3(*value);
+  if (const auto value = item.find("hfov_end")) {
+    rig.hfov_end_deg = value->number();
+    if (!(*rig.hfov_end_deg > 0 && *rig.hfov_end_deg < 180)) value->fail("expected degrees between 0 and 180");
+  }
+  return rig;
+}
+
+ImportedRig read_imported(const JsonValue& item, const CameraContext& context, ImportedRig::Format format) {
+  ImportedRig rig;
+  rig.format = format;
+  if (const auto value = item.find("target")) rig.target = vector3(*value);
+  if (const auto value = item.find("height_m")) rig.height_m = value->number();
+  if (const auto value = item.find("start_angle")) rig.start_angle_deg = value->number();
+  rig.path = resolve(item.member("path"), context.base);
+  if (const auto value = item.find("extent")) rig.extent_m = value->number_in(1e-6, 1e6);
+  if (const auto value = item.find("anchor")) {
+    const std::string anchor = value->string();
+    if (anchor != "centroid" && anchor != "focus") value->fail("expected centroid or focus");
+    rig.anchor_focus = anchor == "focus";
+  }
+  if (const auto value = item.find("speed")) rig.speed = value->number_in(1e-3, 1e3);
+  if (const auto value = item.find("fps")) rig.source_fps = value->number_in(1e-3, 1e4);
+  if (const auto value = item.find("up")) {
+    rig.up = vector3(*value);
+    if (!(rig.up->norm() > 0)) value->fail("the up direction must not be zero");
+  }
+  if (const auto value = item.find("aim")) rig.aim_smoothing_s = value->number_in(0, 1e3);
+  return rig;
+}
+
+CameraRig read_realestate10k(const JsonValue& item, const CameraContext& context) {
+  return read_imported(item, context, ImportedRig::Format::realestate10k);
+}
+
+CameraRig read_colmap(const JsonValue& item, const CameraContext& context) {
+  return read_imported(item, context, ImportedRig::Format::colmap);
+}
+
+// A camera kind of the file: its "type", the keys it takes beside name, type and handheld, and its
+// reader. Imported tracks carry their own intrinsics (only the output image size is the scene's);
+// a camera path file carries all of its camera.
+struct CameraKind {
+  const char* type;
+  std::set<std::string> keys;
+  CameraRig (*read)(const JsonValue& item, const CameraContext& context);
+};
+
+const std::vector<CameraKind>& camera_kinds() {
+  static const std::vector<CameraKind> kinds{
+      {"static", {"width", "height", "hfov", "position", "target", "jitter"}, read_static},
+      {"orbit", {"width", "height", "hfov", "target", "radius", "height_m", "period", "start_angle", "jitter"}, read_orbit},
+      {"ego", {"width", "height", "hfov", "actor", "eye_forward", "eye_up", "smoothing"}, read_ego},
+      {"file", {"path"}, read_file},
+      {"swoop", {"width", "height", "hfov", "target", "radius", "height_m", "height_end", "start_angle", "sweep"}, read_swoop},
+      {"dolly-zoom", {"width", "height", "hfov", "position", "target", "end_distance"}, read_dolly_zoom},
+      {"zoom", {"width", "height", "hfov", "position", "target", "hfov_end"}, read_zoom},
+      {"realestate10k",
+       {"width", "height", "path", "extent", "anchor", "target", "height_m", "start_angle", "speed", "up", "aim"},
+       read_realestate10k},
+      {"colmap",
+       {"width", "height", "path", "extent", "anchor", "target", "height_m", "start_angle", "speed", "up", "aim", "fps"},
+       read_colmap},
+  };
+  return kinds;
+}
+
 SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vector<SceneActor>& actors,
                         const fs::path& base) {
   item.allow_only({"name", "type", "width", "height", "hfov", "position", "target", "radius", "height_m", "period",
@@ -262,54 +406,13 @@ SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vec
   SceneCamera camera;
   camera.name = name_of(item, "camera" + std::to_string(index));
   const JsonValue type = item.member("type");
-  const std::string kind = type.string();
-  const std::set<std::string> static_keys{"position", "target", "jitter"};
-  const std::set<std::string> orbit_keys{"target", "radius", "height_m", "period", "start_angle", "jitter"};
-  const std::set<std::string> ego_keys{"actor", "eye_forward", "eye_up", "smoothing"};
-  const std::set<std::string> file_keys{"path"};
-  const std::set<std::string> swoop_keys{"target", "radius", "height_m", "height_end", "start_angle", "sweep"};
-  const std::set<std::string> dolly_zoom_keys{"position", "target", "end_distance"};
-  const std::set<std::string> zoom_keys{"position", "target", "hfov_end"};
-  const std::set<std::string> realestate10k_keys{"path", "extent", "anchor", "target", "height_m", "start_angle", "speed", "up", "aim"};
-  std::set<std::string> colmap_keys = realestate10k_keys;
-  colmap_keys.insert("fps");
-  const std::set<std::string>* allowed = nullptr;
-  if (kind == "static") {
-    camera.kind = SceneCamera::Kind::fixed;
-    allowed = &static_keys;
-  } else if (kind == "orbit") {
-    camera.kind = SceneCamera::Kind::orbit;
-    allowed = &orbit_keys;
-  } else if (kind == "ego") {
-    camera.kind = SceneCamera::Kind::ego;
-    allowed = &ego_keys;
-  } else if (kind == "file") {
-    camera.kind = SceneCamera::Kind::file;
-    allowed = &file_keys;
-  } else if (kind == "swoop") {
-    camera.kind = SceneCamera::Kind::swoop;
-    allowed = &swoop_keys;
-  } else if (kind == "dolly-zoom") {
-    camera.kind = SceneCamera::Kind::dolly_zoom;
-    allowed = &dolly_zoom_keys;
-  } else if (kind == "zoom") {
-    camera.kind = SceneCamera::Kind::zoom;
-    allowed = &zoom_keys;
-  } else if (kind == "realestate10k") {
-    camera.kind = SceneCamera::Kind::realestate10k;
-    allowed = &realestate10k_keys;
-  } else if (kind == "colmap") {
-    camera.kind = SceneCamera::Kind::colmap;
-    allowed = &colmap_keys;
-  } else {
-    type.fail("expected static, orbit, ego, file, swoop, dolly-zoom, zoom, realestate10k or colmap");
-  }
-  const bool imported = kind == "realestate10k" || kind == "colmap";
+  const std::string type_name = type.string();
+  const auto kind = std::find_if(camera_kinds().begin(), camera_kinds().end(),
+                                 [&](const CameraKind& k) { return type_name == k.type; });
+  if (kind == camera_kinds().end()) type.fail("expected static, orbit, ego, file, swoop, dolly-zoom, zoom, realestate10k or colmap");
   for (const auto& [key, value] : item.raw().items()) {
-    // Imported tracks carry their own intrinsics: only the output image size is the scene's.
-    const bool shared = key == "name" || key == "type" || key == "handheld" ||
-                        (kind != "file" && (key == "width" || key == "height" || (key == "hfov" && !imported)));
-    if (!shared && !allowed->contains(key)) item.member(key).fail("not a key of a " + kind + " camera");
+    const bool shared = key == "name" || key == "type" || key == "handheld";
+    if (!shared && !kind->keys.contains(key)) item.member(key).fail("not a key of a " + type_name + " camera");
   }
   if (const auto value = item.find("width")) camera.width = static_cast<int>(value->integer(1, 1 << 16));
   if (const auto value = item.find("height")) camera.height = static_cast<int>(value->integer(1, 1 << 16));
@@ -317,53 +420,7 @@ SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vec
     camera.hfov_deg = value->number();
     if (!(camera.hfov_deg > 0 && camera.hfov_deg < 180)) value->fail("expected degrees between 0 and 180");
   }
-  if (const auto value = item.find("position")) camera.position = vector3(*value);
-  if (const auto value = item.find("target")) camera.target = vector3(*value);
-  if (const auto value = item.find("radius")) camera.radius = value->number_in(1e-6, 1e6);
-  if (const auto value = item.find("height_m")) camera.height_m = value->number();
-  if (const auto value = item.find("period")) {
-    camera.period_s = value->number();
-    if (camera.period_s == 0) value->fail("a period of 0 seconds");
-  }
-  if (const auto value = item.find("start_angle")) camera.start_angle_deg = value->number();
-  if (const auto value = item.find("actor")) {
-    if (value->is_string()) {
-      const std::string name = value->string();
-      camera.actor = -1;
-      for (std::size_t a = 0; a < actors.size(); ++a) {
-        if (actors[a].name == name) camera.actor = static_cast<int>(a);
-      }
-      if (camera.actor < 0) value->fail("no actor is called '" + name + "'");
-    } else {
-      camera.actor = static_cast<int>(value->integer(0, static_cast<long long>(actors.size()) - 1));
-    }
-  }
-  if (const auto value = item.find("eye_forward")) camera.eye_forward = value->number();
-  if (const auto value = item.find("eye_up")) camera.eye_up = value->number();
-  if (const auto value = item.find("smoothing")) camera.smoothing_s = value->number_in(0, 1e3);
-  if (const auto value = item.find("path")) camera.path = resolve(*value, base);
-  if ((kind == "file" || imported) && camera.path.empty()) item.member("path").fail("missing");
-  if (const auto value = item.find("jitter")) camera.jitter_m = value->number_in(0, 1e3);
-  if (const auto value = item.find("height_end")) camera.height_end_m = value->number();
-  if (const auto value = item.find("sweep")) camera.sweep_deg = value->number_in(-1e5, 1e5);
-  if (const auto value = item.find("end_distance")) camera.end_distance = value->number_in(1e-6, 1e6);
-  if (const auto value = item.find("hfov_end")) {
-    camera.hfov_end_deg = value->number();
-    if (!(*camera.hfov_end_deg > 0 && *camera.hfov_end_deg < 180)) value->fail("expected degrees between 0 and 180");
-  }
-  if (const auto value = item.find("extent")) camera.extent_m = value->number_in(1e-6, 1e6);
-  if (const auto value = item.find("anchor")) {
-    const std::string anchor = value->string();
-    if (anchor != "centroid" && anchor != "focus") value->fail("expected centroid or focus");
-    camera.anchor_focus = anchor == "focus";
-  }
-  if (const auto value = item.find("speed")) camera.speed = value->number_in(1e-3, 1e3);
-  if (const auto value = item.find("fps")) camera.source_fps = value->number_in(1e-3, 1e4);
-  if (const auto value = item.find("up")) {
-    camera.up = vector3(*value);
-    if (!(camera.up->norm() > 0)) value->fail("the up direction must not be zero");
-  }
-  if (const auto value = item.find("aim")) camera.aim_smoothing_s = value->number_in(0, 1e3);
+  camera.rig = kind->read(item, CameraContext{actors, base});
   if (const auto value = item.find("handheld")) {
     value->allow_only({"amplitude", "rotation", "band"});
     HandheldOptions handheld;

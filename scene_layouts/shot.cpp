@@ -56,10 +56,15 @@ void validate_scene(const Scene& scene) {
   for (const SceneCamera& camera : scene.cameras) {
     require(!camera.name.empty(), "scene: a camera has no name");
     require(names.insert("camera " + camera.name).second, "scene: two cameras are called '" + camera.name + "'");
-    require(camera.kind != SceneCamera::Kind::ego || (camera.actor >= 0 && camera.actor < static_cast<int>(scene.actors.size())),
-            "camera '" + camera.name + "': rides on actor " + std::to_string(camera.actor) + ", the scene has " +
-                std::to_string(scene.actors.size()));
-    require(camera.jitter_m >= 0 && std::isfinite(camera.jitter_m), "camera '" + camera.name + "': jitter must be 0 or more");
+    if (const EgoRig* ego = std::get_if<EgoRig>(&camera.rig)) {
+      require(ego->actor >= 0 && ego->actor < static_cast<int>(scene.actors.size()),
+              "camera '" + camera.name + "': rides on actor " + std::to_string(ego->actor) + ", the scene has " +
+                  std::to_string(scene.actors.size()));
+    }
+    double jitter_m = 0;
+    if (const StaticRig* rig = std::get_if<StaticRig>(&camera.rig)) jitter_m = rig->jitter_m;
+    if (const OrbitRig* rig = std::get_if<OrbitRig>(&camera.rig)) jitter_m = rig->jitter_m;
+    require(jitter_m >= 0 && std::isfinite(jitter_m), "camera '" + camera.name + "': jitter must be 0 or more");
   }
   const SceneOutputs& out = scene.outputs;
   const auto per = [](const std::vector<std::string>& paths, std::size_t count, const char* what, const char* of) {
@@ -273,7 +278,7 @@ Shot prepare_shot(const Scene& scene, const PrepareOptions& options, const Progr
   for (std::size_t c = 0; c < scene.cameras.size(); ++c) {
     const SceneCamera& camera = scene.cameras[c];
     shot.cameras.push_back({camera.name, make_camera(camera, scene, shot.actors, framing, shot.frames, c, shot.notes),
-                            camera.kind == SceneCamera::Kind::ego ? camera.actor : -1});
+                            rides_on(camera)});
   }
   if (options.sample_points) sample_points(scene, shot);
   return shot;

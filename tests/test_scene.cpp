@@ -182,8 +182,7 @@ TEST(ScenePipelineTest, OverlappingActorsAndCamerasInsideGeometryAreErrors) {
   boxed.props = {box};
   scene::SceneCamera camera;
   camera.name = "inside";
-  camera.position = Eigen::Vector3d(4, 4, 0.5);
-  camera.target = Eigen::Vector3d(0, 0, 1);
+  camera.rig = scene::StaticRig{.position = Eigen::Vector3d(4, 4, 0.5), .target = Eigen::Vector3d(0, 0, 1)};
   boxed.cameras = {camera};
   const fs::path dir = test_support::scratch_dir("scene");
   boxed.outputs.trajectories = {(dir / "t.npz").string()};
@@ -264,8 +263,7 @@ TEST(ScenePipelineTest, VisibilityAgreesWithBruteForceRayCastingAcrossActorsAndP
   shot.props = {floor, box};
   scene::SceneCamera camera;
   camera.name = "side";
-  camera.position = Eigen::Vector3d(1.5, -6, 1.2);
-  camera.target = Eigen::Vector3d(0.6, 0, 0.9);
+  camera.rig = scene::StaticRig{.position = Eigen::Vector3d(1.5, -6, 1.2), .target = Eigen::Vector3d(0.6, 0, 0.9)};
   shot.cameras = {camera};
   shot.outputs.points_per_actor = 1500;
   shot.outputs.prop_points = 1500;
@@ -327,8 +325,7 @@ TEST(ScenePipelineTest, ActorsNoCameraSeesAreNotSkinned) {
   shot.seconds = 0.5;
   scene::SceneCamera camera;
   camera.name = "front";
-  camera.position = Eigen::Vector3d(0, -3, 1.2);
-  camera.target = Eigen::Vector3d(0, 0, 1);
+  camera.rig = scene::StaticRig{.position = Eigen::Vector3d(0, -3, 1.2), .target = Eigen::Vector3d(0, 0, 1)};
   shot.cameras = {camera};
   shot.outputs.points_per_actor = 200;
   const fs::path dir = test_support::scratch_dir("scene");
@@ -405,8 +402,7 @@ TEST(ScenePipelineTest, ContactSheetShowsTheActorAndItsVisiblePoints) {
   shot.seconds = 1;
   scene::SceneCamera camera;
   camera.name = "front";
-  camera.position = Eigen::Vector3d(0.6, -3.5, 1.0);
-  camera.target = Eigen::Vector3d(0.6, 0, 0.8);
+  camera.rig = scene::StaticRig{.position = Eigen::Vector3d(0.6, -3.5, 1.0), .target = Eigen::Vector3d(0.6, 0, 0.8)};
   shot.cameras = {camera};
   shot.outputs.points_per_actor = 500;
   const fs::path dir = test_support::scratch_dir("scene");

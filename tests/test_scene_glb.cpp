@@ -59,12 +59,10 @@ const scene::SceneResult& shared_scene() {
     shot.props = {box};
     scene::SceneCamera fixed;
     fixed.name = "side";
-    fixed.position = Eigen::Vector3d(1, -6, 1.5);
-    fixed.target = Eigen::Vector3d(1, 0, 0.9);
+    fixed.rig = scene::StaticRig{.position = Eigen::Vector3d(1, -6, 1.5), .target = Eigen::Vector3d(1, 0, 0.9)};
     scene::SceneCamera ego;
-    ego.kind = scene::SceneCamera::Kind::ego;
+    ego.rig = scene::EgoRig{.actor = 0};
     ego.name = "head";
-    ego.actor = 0;
     shot.cameras = {fixed, ego};
     return scene::run_scene(shot);
   }();

@@ -49,9 +49,8 @@ scene::Scene two_walkers_and_a_box() {
   box.position = Eigen::Vector3d(0, 1.5, 0);
   shot.props = {box};
   scene::SceneCamera orbit;
-  orbit.kind = scene::SceneCamera::Kind::orbit;
   orbit.name = "orbit";
-  orbit.period_s = 2;
+  orbit.rig = scene::OrbitRig{.period_s = 2};
   scene::SceneCamera fixed;
   fixed.name = "front";
   fixed.width = 320;
