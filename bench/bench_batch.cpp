@@ -29,8 +29,8 @@
 #include "bench/timed_process.h"
 #include "mocap_io/amass.h"
 #include "mocap_io/body_model_writer.h"
-#include "skeleton/body_sequence.h"
-#include "skeleton/synthetic_body.h"
+#include "synthetic/synthetic_body.h"
+#include "synthetic/synthetic_walk.h"
 
 namespace {
 

@@ -59,7 +59,8 @@
 #include "skeleton/body_clip.h"
 #include "skeleton/body_sequence.h"
 #include "skeleton/pose_layout.h"
-#include "skeleton/synthetic_body.h"
+#include "synthetic/synthetic_body.h"
+#include "synthetic/synthetic_walk.h"
 
 namespace odyssey::retarget {
 namespace {

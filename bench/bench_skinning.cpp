@@ -40,11 +40,11 @@
 #include "skeleton/character.h"
 #include "skeleton/fk.h"
 #include "skeleton/rotation.h"
-#include "skeleton/synthetic_body.h"
 #include "skinning/body_character.h"
 #include "skinning/lbs.h"
 #include "skinning/lbs_kernel.h"
 #include "skinning/sampling.h"
+#include "synthetic/synthetic_body.h"
 
 namespace odyssey::skinning {
 namespace {

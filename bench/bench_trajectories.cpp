@@ -45,9 +45,9 @@
 #include "scene_layouts/frame_loop.h"
 #include "scene_layouts/pipeline.h"
 #include "scene_layouts/sinks.h"
-#include "skeleton/synthetic_body.h"
 #include "skinning/body_character.h"
 #include "skinning/sampling.h"
+#include "synthetic/synthetic_body.h"
 
 namespace {
 

@@ -22,7 +22,8 @@
 #include "scene_layouts/pipeline.h"
 #include "scene_layouts/scene_file.h"
 #include "skeleton/body_sequence.h"
-#include "skeleton/synthetic_body.h"
+#include "synthetic/synthetic_body.h"
+#include "synthetic/synthetic_walk.h"
 
 namespace odyssey::cli {
 namespace {

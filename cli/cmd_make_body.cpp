@@ -4,7 +4,7 @@
 #include "cli/args.h"
 #include "cli/commands.h"
 #include "mocap_io/body_model_writer.h"
-#include "skeleton/synthetic_body.h"
+#include "synthetic/synthetic_body.h"
 
 namespace odyssey::cli {
 

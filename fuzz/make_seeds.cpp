@@ -20,6 +20,7 @@
 #include "skeleton/body_model.h"
 #include "skeleton/body_sequence.h"
 #include "skeleton/camera.h"
+#include "synthetic/synthetic_walk.h"
 
 namespace fs = std::filesystem;
 using namespace odyssey;

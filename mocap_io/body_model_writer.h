@@ -25,7 +25,7 @@
 #include <string>
 
 #include "skeleton/body_model.h"
-#include "skeleton/synthetic_body.h"
+#include "synthetic/synthetic_body.h"
 
 namespace odyssey::io {
 

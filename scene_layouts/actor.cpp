@@ -19,7 +19,7 @@
 #include "retarget/quality.h"
 #include "skeleton/body_clip.h"
 #include "skeleton/pose_layout.h"
-#include "skeleton/synthetic_body.h"
+#include "synthetic/synthetic_body.h"
 
 namespace odyssey::scene {
 namespace {

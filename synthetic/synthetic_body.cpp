@@ -1,4 +1,4 @@
-#include "skeleton/synthetic_body.h"
+#include "synthetic/synthetic_body.h"
 
 #include <Eigen/Dense>
 #include <algorithm>

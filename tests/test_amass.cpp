@@ -18,6 +18,7 @@
 #include "mocap_io/input_error.h"
 #include "mocap_io/npy.h"
 #include "skeleton/body_sequence.h"
+#include "synthetic/synthetic_walk.h"
 #include "test_support.h"
 
 namespace odyssey::io {

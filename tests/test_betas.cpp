@@ -25,7 +25,8 @@
 #include "skeleton/betas.h"
 #include "skeleton/body_clip.h"
 #include "skeleton/body_sequence.h"
-#include "skeleton/synthetic_body.h"
+#include "synthetic/synthetic_body.h"
+#include "synthetic/synthetic_walk.h"
 #include "test_support.h"
 
 namespace odyssey {

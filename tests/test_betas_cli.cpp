@@ -18,7 +18,8 @@
 #include "mocap_io/body_model_writer.h"
 #include "mocap_io/npy.h"
 #include "skeleton/body_sequence.h"
-#include "skeleton/synthetic_body.h"
+#include "synthetic/synthetic_body.h"
+#include "synthetic/synthetic_walk.h"
 #include "test_support.h"
 
 namespace odyssey {

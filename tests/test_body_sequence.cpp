@@ -10,6 +10,7 @@
 
 #include "skeleton/body_sequence.h"
 #include "skeleton/rotation.h"
+#include "synthetic/synthetic_walk.h"
 
 namespace odyssey {
 namespace {

@@ -19,7 +19,8 @@
 #include "retarget/refine.h"
 #include "retarget/retarget.h"
 #include "skeleton/body_clip.h"
-#include "skeleton/synthetic_body.h"
+#include "synthetic/synthetic_body.h"
+#include "synthetic/synthetic_walk.h"
 
 namespace odyssey::retarget {
 namespace {

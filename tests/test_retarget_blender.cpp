@@ -56,7 +56,7 @@
 
 #include "cli_runner.h"
 #include "mocap_io/amass.h"
-#include "skeleton/body_sequence.h"
+#include "synthetic/synthetic_walk.h"
 #include "test_support.h"
 
 namespace odyssey {

@@ -22,9 +22,9 @@
 #include "mocap_io/gltf_character.h"
 #include "skeleton/fk.h"
 #include "skeleton/rotation.h"
-#include "skeleton/synthetic_body.h"
 #include "skinning/body_character.h"
 #include "skinning/sampling.h"
+#include "synthetic/synthetic_body.h"
 
 namespace odyssey::skinning {
 namespace {

@@ -24,11 +24,11 @@
 #include "skeleton/body_model.h"
 #include "skeleton/fk.h"
 #include "skeleton/rotation.h"
-#include "skeleton/synthetic_body.h"
 #include "skinning/body_character.h"
 #include "skinning/lbs.h"
 #include "skinning/lbs_kernel.h"
 #include "skinning/normals.h"
+#include "synthetic/synthetic_body.h"
 
 namespace odyssey::skinning {
 namespace {

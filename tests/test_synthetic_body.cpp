@@ -34,7 +34,7 @@
 #include "mocap_io/body_model_file.h"
 #include "mocap_io/body_model_writer.h"
 #include "mocap_io/npy.h"
-#include "skeleton/synthetic_body.h"
+#include "synthetic/synthetic_body.h"
 #include "test_support.h"
 
 namespace {
