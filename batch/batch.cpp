@@ -118,7 +118,12 @@ std::vector<std::string> job_inputs(const Job& job) {
   } else {
     files.push_back(job.scene_path);
     const scene::SceneFile file = scene::read_scene_file(job.scene_path);
-    for (const scene::SceneActor& actor : file.scene.actors) request_files(actor.retarget);
+    for (const scene::SceneActor& actor : file.scene.actors) {
+      // As before the variant, a played source (animation, anime) adds an empty request: its "" cannot
+      // be hashed, so the job gets no key and is never resumed. Listing its own file would fix that.
+      const auto* request = std::get_if<scene::RetargetRequest>(&actor.source);
+      request_files(request ? *request : scene::RetargetRequest{});
+    }
     for (const scene::Prop& prop : file.scene.props) {
       if (!prop.path.empty()) files.push_back(prop.path);
     }

@@ -80,8 +80,9 @@ scene::Scene retarget_scene(const Job& job, const fs::path& folder) {
   shot.fps = job.request.fps;
   scene::SceneActor actor;
   actor.name = "actor";
-  actor.retarget = job.request;
-  actor.retarget.refine_options.threads = 1;  // the batch is parallel across jobs
+  scene::RetargetRequest request = job.request;
+  request.refine_options.threads = 1;  // the batch is parallel across jobs
+  actor.source = std::move(request);
   shot.actors.push_back(std::move(actor));
   scene::SceneCamera camera;
   camera.name = "camera";

@@ -69,33 +69,36 @@ scene::SceneActor actor_from_options(const Args& args) {
       if (args.has(name)) throw UsageError(std::string("--") + name + " is for --animation or --anime");
     }
     if (args.has("scale")) throw UsageError("--scale is for --animation or --anime");
-    actor.retarget = retarget_request_from(args);
-    actor.name = std::filesystem::path(actor.retarget.character_path).stem().string();
+    scene::RetargetRequest request = retarget_request_from(args);
+    actor.name = std::filesystem::path(request.character_path).stem().string();
+    actor.source = std::move(request);
     return actor;
   }
   const double fps = positive(args, "fps");
   const double scale = positive(args, "scale");
   if (animation) {
-    actor.source = scene::ActorSourceKind::animation;
-    actor.animation.character_path = args.get("character");
-    actor.animation.animation = args.get("animation");
-    actor.animation.fps = fps;
-    actor.animation.length = length_from(args);
-    actor.animation.scale = scale;
-    actor.name = std::filesystem::path(actor.animation.character_path).stem().string();
+    scene::AnimationRequest request;
+    request.character_path = args.get("character");
+    request.animation = args.get("animation");
+    request.fps = fps;
+    request.length = length_from(args);
+    request.scale = scale;
+    actor.name = std::filesystem::path(request.character_path).stem().string();
+    actor.source = std::move(request);
     return actor;
   }
   if (args.has("character")) throw UsageError("--anime is the mesh: give no --character");
-  actor.source = scene::ActorSourceKind::anime;
-  actor.anime.path = args.get("anime");
-  actor.anime.source_fps = positive(args, "anime-fps");
+  scene::AnimeRequest request;
+  request.path = args.get("anime");
+  request.source_fps = positive(args, "anime-fps");
   const std::string up = args.get("anime-up");
   if (up != "y" && up != "z") throw UsageError("--anime-up expects y or z, got '" + up + "'");
-  actor.anime.up_z = up == "z";
-  actor.anime.fps = fps;
-  actor.anime.length = length_from(args);
-  actor.anime.scale = scale;
-  actor.name = std::filesystem::path(actor.anime.path).stem().string();
+  request.up_z = up == "z";
+  request.fps = fps;
+  request.length = length_from(args);
+  request.scale = scale;
+  actor.name = std::filesystem::path(request.path).stem().string();
+  actor.source = std::move(request);
   return actor;
 }
 

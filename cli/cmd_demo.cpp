@@ -103,9 +103,10 @@ int run_demo(const std::vector<std::string>& arguments) {
   walk_scene.fps = fps;
   scene::SceneActor actor;
   actor.name = character;
-  actor.retarget = scene::retarget_request(bvh_path, (data / "characters" / (character + ".glb")).string(), *quality);
-  actor.retarget.fps = fps;
-  actor.retarget.bvh_metres_per_unit = io::kCmuMetresPerUnit;
+  scene::RetargetRequest request = scene::retarget_request(bvh_path, (data / "characters" / (character + ".glb")).string(), *quality);
+  request.fps = fps;
+  request.bvh_metres_per_unit = io::kCmuMetresPerUnit;
+  actor.source = std::move(request);
   walk_scene.actors.push_back(actor);
   scene::SceneCamera ego;
   ego.rig = scene::EgoRig{};

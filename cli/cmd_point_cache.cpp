@@ -31,9 +31,9 @@ int run_point_cache(const std::vector<std::string>& arguments) {
 
   scene::Scene scene;
   scene::SceneActor actor = actor_from_options(args);
-  scene.fps = actor.source == scene::ActorSourceKind::motion ? actor.retarget.fps : args.get_double("fps");
-  scene.outputs.threads = actor.source == scene::ActorSourceKind::motion ? actor.retarget.refine_options.threads
-                                                                         : thread_count(args);
+  const scene::RetargetRequest* motion = std::get_if<scene::RetargetRequest>(&actor.source);
+  scene.fps = motion ? motion->fps : args.get_double("fps");
+  scene.outputs.threads = motion ? motion->refine_options.threads : thread_count(args);
   scene.actors.push_back(std::move(actor));
   const std::string out_path = args.get("out");
   const std::string obj_path =

@@ -55,10 +55,11 @@ int run_retarget(const std::vector<std::string>& arguments) {
 
   scene::Scene scene;
   scene::SceneActor actor;
-  actor.retarget = retarget_request_from(args);
-  actor.name = fs::path(actor.retarget.character_path).stem().string();
-  scene.fps = actor.retarget.fps;
-  scene.outputs.threads = actor.retarget.refine_options.threads;
+  scene::RetargetRequest request = retarget_request_from(args);
+  actor.name = fs::path(request.character_path).stem().string();
+  scene.fps = request.fps;
+  scene.outputs.threads = request.refine_options.threads;
+  actor.source = std::move(request);
   scene.actors.push_back(std::move(actor));
   const std::string out_path = args.get("out");
   const std::optional<std::string> report_path = args.get_optional("report");

@@ -47,7 +47,8 @@ int run_trajectories(const std::vector<std::string>& arguments) {
 
   scene::Scene scene;
   scene::SceneActor actor = actor_from_options(args);
-  scene.fps = actor.source == scene::ActorSourceKind::motion ? actor.retarget.fps : args.get_double("fps");
+  const scene::RetargetRequest* motion = std::get_if<scene::RetargetRequest>(&actor.source);
+  scene.fps = motion ? motion->fps : args.get_double("fps");
   const long long points = args.get_int("points");
   if (points < 1 || points > 100'000'000) throw UsageError("--points expects 1 to 100000000, got " + args.get("points"));
   actor.points = static_cast<int>(points);
@@ -65,8 +66,7 @@ int run_trajectories(const std::vector<std::string>& arguments) {
   const long long chunk_frames = args.get_int("chunk-frames");
   if (chunk_frames < 0 || chunk_frames > 100000) throw UsageError("--chunk-frames expects 0 to 100000");
   scene.outputs.chunk_frames = static_cast<int>(chunk_frames);
-  scene.outputs.threads = actor.source == scene::ActorSourceKind::motion ? actor.retarget.refine_options.threads
-                                                                         : thread_count(args);
+  scene.outputs.threads = motion ? motion->refine_options.threads : thread_count(args);
   scene.outputs.compress = args.get_flag("compress");
   if (args.get("camera") == "none") throw UsageError("trajectories need a camera: --camera static, orbit, ego, file, swoop, dolly-zoom, zoom, realestate10k or colmap");
   scene.cameras.push_back(*camera_from_options(args));

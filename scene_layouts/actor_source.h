@@ -31,6 +31,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "scene_layouts/actor.h"
@@ -65,6 +66,10 @@ struct AnimeRequest {
   PlaybackLength length;
   double scale = 1;
 };
+
+// What drives a scene actor: the request of its source (a motion to retarget, a character's own
+// animation, a .anime mesh). prepare_shot (shot.h) builds each into an ActorMotion.
+using ActorSource = std::variant<RetargetRequest, AnimationRequest, AnimeRequest>;
 
 // An actor's motion, whatever its source.
 struct ActorMotion {

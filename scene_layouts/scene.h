@@ -49,12 +49,9 @@ struct Placement {
 
 struct SceneActor {
   std::string name;  // unique in the scene; names its output files
-  // What drives it (actor_source.h): `retarget` for a motion, `animation` for a character's own
-  // animation, `anime` for a DeformingThings4D mesh; only the source's request is read.
-  ActorSourceKind source = ActorSourceKind::motion;
-  RetargetRequest retarget;
-  AnimationRequest animation;
-  AnimeRequest anime;
+  // What drives it (actor_source.h): a RetargetRequest for a motion, an AnimationRequest for a
+  // character's own animation, an AnimeRequest for a DeformingThings4D mesh.
+  ActorSource source;
   Placement placement;
   double start_s = 0;                   // scene time at which the (trimmed) clip starts
   // When set, start_s is drawn uniformly in [first, second] from the scene's seed instead.

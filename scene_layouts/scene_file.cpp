@@ -52,59 +52,48 @@ PlaybackLength read_length(const JsonValue& item) {
   return length;
 }
 
-// An actor playing a character's own animation ("character" and "animation") or a .anime mesh
-// ("anime"): the keys of its source. Returns false for a motion actor.
-bool read_played_source(const JsonValue& item, SceneActor& actor, const fs::path& base) {
-  const auto animation = item.find("animation"), anime = item.find("anime");
-  if (!animation && !anime) {
-    for (const char* key : {"loops", "seconds", "scale", "source_fps", "up"}) {
-      if (const auto value = item.find(key)) value->fail("only an actor with an animation or an anime takes this key");
-    }
-    return false;
+// A played source's scale (lengths are multiplied by it).
+double read_scale(const JsonValue& item) { return item.find("scale") ? item.member("scale").number_in(1e-9, 1e9) : 1.0; }
+
+// A character's own animation ("character" and "animation").
+AnimationRequest read_animation_request(const JsonValue& item, const JsonValue& animation, const fs::path& base) {
+  AnimationRequest request;
+  request.scale = read_scale(item);
+  for (const char* key : {"source_fps", "up"}) {
+    if (const auto value = item.find(key)) value->fail("only an anime actor takes this key");
   }
-  if (animation && anime) anime->fail("an actor plays an animation or an anime, not both");
-  if (const auto motion = item.find("motion")) motion->fail("an actor with " + std::string(anime ? "an anime" : "an animation") +
-                                                            " plays it: it takes no motion");
-  for (const char* key : {"model", "betas", "bvh_units", "quality", "parts", "weights", "contact_lift", "map", "source_map",
-                          "source_rest"}) {
-    if (const auto value = item.find(key)) value->fail("a retargeting setting, but this actor plays its own motion");
-  }
-  const double scale = item.find("scale") ? item.member("scale").number_in(1e-9, 1e9) : 1.0;
-  if (animation) {
-    for (const char* key : {"source_fps", "up"}) {
-      if (const auto value = item.find(key)) value->fail("only an anime actor takes this key");
-    }
-    actor.source = ActorSourceKind::animation;
-    actor.animation.character_path = resolve(item.member("character"), base);
-    actor.animation.animation = animation->string();
-    if (actor.animation.animation.empty()) animation->fail("an empty animation name");
-    actor.animation.length = read_length(item);
-    actor.animation.scale = scale;
-    return true;
-  }
+  request.character_path = resolve(item.member("character"), base);
+  request.animation = animation.string();
+  if (request.animation.empty()) animation.fail("an empty animation name");
+  request.length = read_length(item);
+  return request;
+}
+
+// A DeformingThings4D mesh ("anime", its "source_fps" and "up").
+AnimeRequest read_anime_request(const JsonValue& item, const JsonValue& anime, const fs::path& base) {
+  AnimeRequest request;
+  request.scale = read_scale(item);
   if (const auto character = item.find("character")) character->fail("an anime actor's mesh is its anime file: it takes no character");
-  actor.source = ActorSourceKind::anime;
-  actor.anime.path = resolve(*anime, base);
-  if (const auto value = item.find("source_fps")) actor.anime.source_fps = value->number_in(1e-3, 1e4);
+  request.path = resolve(anime, base);
+  if (const auto value = item.find("source_fps")) request.source_fps = value->number_in(1e-3, 1e4);
   if (const auto value = item.find("up")) {
     const std::string axis = value->string();
     if (axis != "y" && axis != "z") value->fail("expected y or z");
-    actor.anime.up_z = axis == "z";
+    request.up_z = axis == "z";
   }
-  actor.anime.length = read_length(item);
-  actor.anime.scale = scale;
-  return true;
+  request.length = read_length(item);
+  return request;
 }
 
-void read_retarget_request(const JsonValue& item, SceneActor& actor, const fs::path& base) {
+// A motion retargeted onto a character ("motion" and "character", and the retargeting settings).
+RetargetRequest read_retarget_request(const JsonValue& item, const fs::path& base) {
   retarget::Quality quality = retarget::Quality::balanced;
   if (const auto value = item.find("quality")) {
     const auto parsed = retarget::parse_quality(value->string());
     if (!parsed) value->fail("expected fast, balanced or accurate");
     quality = *parsed;
   }
-  actor.retarget = retarget_request(resolve(item.member("motion"), base), resolve(item.member("character"), base), quality);
-  RetargetRequest& r = actor.retarget;
+  RetargetRequest r = retarget_request(resolve(item.member("motion"), base), resolve(item.member("character"), base), quality);
   if (const auto value = item.find("model")) r.model_path = resolve(*value, base);
   if (const auto value = item.find("betas")) {
     const auto policy = parse_betas_policy(value->string());
@@ -155,6 +144,28 @@ void read_retarget_request(const JsonValue& item, SceneActor& actor, const fs::p
       value->fail("expected rest or first-frame");
     }
   }
+  return r;
+}
+
+// The actor's source, named by its keys: "animation" or "anime" plays one, else "motion" is
+// retargeted. Keys of the other sources are refused.
+ActorSource read_source(const JsonValue& item, const fs::path& base) {
+  const auto animation = item.find("animation"), anime = item.find("anime");
+  if (!animation && !anime) {
+    for (const char* key : {"loops", "seconds", "scale", "source_fps", "up"}) {
+      if (const auto value = item.find(key)) value->fail("only an actor with an animation or an anime takes this key");
+    }
+    return read_retarget_request(item, base);
+  }
+  if (animation && anime) anime->fail("an actor plays an animation or an anime, not both");
+  if (const auto motion = item.find("motion")) motion->fail("an actor with " + std::string(anime ? "an anime" : "an animation") +
+                                                            " plays it: it takes no motion");
+  for (const char* key : {"model", "betas", "bvh_units", "quality", "parts", "weights", "contact_lift", "map", "source_map",
+                          "source_rest"}) {
+    if (const auto value = item.find(key)) value->fail("a retargeting setting, but this actor plays its own motion");
+  }
+  if (animation) return read_animation_request(item, *animation, base);
+  return read_anime_request(item, *anime, base);
 }
 
 void read_placement_and_timing(const JsonValue& item, SceneActor& actor) {
@@ -212,7 +223,7 @@ SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& 
                    "sampling", "animation", "anime", "loops", "seconds", "scale", "source_fps", "up"});
   SceneActor actor;
   actor.name = name_of(item, "actor" + std::to_string(index));
-  if (!read_played_source(item, actor, base)) read_retarget_request(item, actor, base);
+  actor.source = read_source(item, base);
   read_placement_and_timing(item, actor);
   return actor;
 }
@@ -467,9 +478,7 @@ SceneFile parse_scene(const std::string& json_text, const std::string& path) {
   std::set<std::string> names;
   for (std::size_t a = 0; a < actors.size(); ++a) {
     scene.actors.push_back(read_actor(actors[a], a, base));
-    scene.actors.back().retarget.fps = scene.fps;
-    scene.actors.back().animation.fps = scene.fps;
-    scene.actors.back().anime.fps = scene.fps;
+    std::visit([&](auto& request) { request.fps = scene.fps; }, scene.actors.back().source);
     if (actors[a].find("fps")) actors[a].member("fps").fail("actors run at the scene's fps");
     if (!names.insert(scene.actors.back().name).second) actors[a].member("name").fail("two actors have this name");
   }

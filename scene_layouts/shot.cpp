@@ -77,14 +77,14 @@ void validate_scene(const Scene& scene) {
   per(out.actor_reports, scene.actors.size(), "actor_reports", "actor");
   require(out.glb.empty() || (scene.actors.size() == 1 && scene.props.empty()),
           "scene outputs: a GLB is written for a scene of one actor and no props");
-  require(out.glb.empty() || scene.actors[0].source == ActorSourceKind::motion,
+  require(out.glb.empty() || std::holds_alternative<RetargetRequest>(scene.actors[0].source),
           "scene outputs: the one-actor GLB animates a retargeted character; write the scene GLB for other actors");
   require(out.points_per_actor >= 0 && out.prop_points >= 0, "scene outputs: point counts must be 0 or more");
   require(out.prop_points == 0 || !scene.props.empty(), "scene outputs: prop points asked for, but the scene has no props");
 }
 
-// Everything that changes what retarget_actor returns.
-std::string request_key(const RetargetRequest& r) {
+// Everything that changes what a source builds: identical keys are built once.
+std::string source_key(const RetargetRequest& r) {
   nlohmann::ordered_json key = {r.motion_path,
                                 r.character_path,
                                 r.map_path.value_or(""),
@@ -98,38 +98,39 @@ std::string request_key(const RetargetRequest& r) {
                                 betas_policy_name(r.betas)};
   key.push_back(refine_settings_json(r.refine_options));
   key.push_back(r.refine_options.threads);
-  return key.dump();
+  return "motion " + key.dump();
 }
 
-// Everything that changes what an actor's source builds.
-std::string source_key(const SceneActor& actor) {
-  const auto length = [](const PlaybackLength& l) { return nlohmann::json{l.loops.value_or(0), l.seconds.value_or(-1)}; };
-  switch (actor.source) {
-    case ActorSourceKind::motion:
-      return "motion " + request_key(actor.retarget);
-    case ActorSourceKind::animation: {
-      const AnimationRequest& r = actor.animation;
-      return "animation " + nlohmann::json{r.character_path, r.animation, r.fps, length(r.length), r.scale}.dump();
-    }
-    case ActorSourceKind::anime: {
-      const AnimeRequest& r = actor.anime;
-      return "anime " + nlohmann::json{r.path, r.source_fps, r.fps, r.up_z, length(r.length), r.scale}.dump();
-    }
-  }
-  return {};
+nlohmann::json length_key(const PlaybackLength& l) { return nlohmann::json{l.loops.value_or(0), l.seconds.value_or(-1)}; }
+
+std::string source_key(const AnimationRequest& r) {
+  return "animation " + nlohmann::json{r.character_path, r.animation, r.fps, length_key(r.length), r.scale}.dump();
 }
 
-ActorMotion build_motion(const SceneActor& actor, const ProgressCallback& progress, LoadCache* cache) {
-  if (actor.source == ActorSourceKind::motion) {
-    return retargeted_motion(std::make_shared<const RetargetedActor>(retarget_actor(actor.retarget, progress, cache)));
-  }
-  ActorMotion motion = actor.source == ActorSourceKind::animation ? play_character_animation(actor.animation, cache)
-                                                                  : play_anime(actor.anime);
-  if (progress) {
-    progress(ProgressEvent{actor.source == ActorSourceKind::animation ? "load_character" : "load_anime",
-                           motion.source_path + ": " + motion.description, nullptr, 0, 0});
-    for (const std::string& warning : motion.warnings) progress(ProgressEvent{"warning", motion.source_path + ": " + warning, nullptr, 0, 0});
-  }
+std::string source_key(const AnimeRequest& r) {
+  return "anime " + nlohmann::json{r.path, r.source_fps, r.fps, r.up_z, length_key(r.length), r.scale}.dump();
+}
+
+// A played source's progress: what was loaded (`event`), then its warnings.
+void report_played(const ActorMotion& motion, const char* event, const ProgressCallback& progress) {
+  if (!progress) return;
+  progress(ProgressEvent{event, motion.source_path + ": " + motion.description, nullptr, 0, 0});
+  for (const std::string& warning : motion.warnings) progress(ProgressEvent{"warning", motion.source_path + ": " + warning, nullptr, 0, 0});
+}
+
+ActorMotion build_motion(const RetargetRequest& request, const ProgressCallback& progress, LoadCache* cache) {
+  return retargeted_motion(std::make_shared<const RetargetedActor>(retarget_actor(request, progress, cache)));
+}
+
+ActorMotion build_motion(const AnimationRequest& request, const ProgressCallback& progress, LoadCache* cache) {
+  ActorMotion motion = play_character_animation(request, cache);
+  report_played(motion, "load_character", progress);
+  return motion;
+}
+
+ActorMotion build_motion(const AnimeRequest& request, const ProgressCallback& progress, LoadCache*) {
+  ActorMotion motion = play_anime(request);
+  report_played(motion, "load_anime", progress);
   return motion;
 }
 
@@ -228,8 +229,11 @@ std::vector<skinning::SurfacePoint> sample_actor_points(const SceneActor& spec, 
 void build_actors(const Scene& scene, const ProgressCallback& progress, LoadCache* cache, Shot& result) {
   std::map<std::string, std::shared_ptr<const ActorMotion>> built;
   for (const SceneActor& actor : scene.actors) {
-    std::shared_ptr<const ActorMotion>& slot = built[source_key(actor)];
-    if (!slot) slot = std::make_shared<const ActorMotion>(build_motion(actor, progress, cache));
+    std::shared_ptr<const ActorMotion>& slot = built[std::visit([](const auto& request) { return source_key(request); }, actor.source)];
+    if (!slot) {
+      slot = std::make_shared<const ActorMotion>(
+          std::visit([&](const auto& request) { return build_motion(request, progress, cache); }, actor.source));
+    }
     PlacedActor placed;
     placed.name = actor.name;
     placed.motion = slot;
@@ -237,7 +241,8 @@ void build_actors(const Scene& scene, const ProgressCallback& progress, LoadCach
     result.actors.push_back(std::move(placed));
   }
   for (const SceneActor& actor : scene.actors) {
-    if (actor.source == ActorSourceKind::motion && actor.retarget.parts == retarget::Parts::body) {
+    const RetargetRequest* request = std::get_if<RetargetRequest>(&actor.source);
+    if (request && request->parts == retarget::Parts::body) {
       result.skipped.push_back("actor '" + actor.name + "': fingers and face not solved (parts body: they keep their rest pose)");
     }
   }

@@ -18,8 +18,9 @@ inline const std::string kSceneCesium = kSceneData + "/characters/CesiumMan.glb"
 inline scene::SceneActor walker(const std::string& name, const std::string& character, double x, double y, double yaw) {
   scene::SceneActor actor;
   actor.name = name;
-  actor.retarget = scene::retarget_request(kSceneWalk, character, retarget::Quality::fast);
-  actor.retarget.bvh_metres_per_unit = io::kCmuMetresPerUnit;
+  scene::RetargetRequest request = scene::retarget_request(kSceneWalk, character, retarget::Quality::fast);
+  request.bvh_metres_per_unit = io::kCmuMetresPerUnit;
+  actor.source = std::move(request);
   actor.placement.kind = scene::Placement::Kind::fixed;
   actor.placement.x = x;
   actor.placement.y = y;

@@ -277,8 +277,8 @@ TEST(BetasPolicy, SceneFilesCarryThePolicyPerActor) {
   };
   for (BetasPolicy policy : {BetasPolicy::fit, BetasPolicy::truncate, BetasPolicy::pad, BetasPolicy::error}) {
     const scene::SceneFile file = scene::parse_scene(scene_with(std::string("\"") + betas_policy_name(policy) + "\""), "shot.json");
-    EXPECT_EQ(file.scene.actors[0].retarget.betas, BetasPolicy::fit);
-    EXPECT_EQ(file.scene.actors[1].retarget.betas, policy);
+    EXPECT_EQ(std::get<scene::RetargetRequest>(file.scene.actors[0].source).betas, BetasPolicy::fit);
+    EXPECT_EQ(std::get<scene::RetargetRequest>(file.scene.actors[1].source).betas, policy);
   }
   const std::string bad = message_of<io::InputError>([&] { scene::parse_scene(scene_with("\"clip\""), "shot.json"); });
   EXPECT_TRUE(contains(bad, "shot.json")) << bad;

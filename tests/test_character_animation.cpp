@@ -256,20 +256,20 @@ TEST(ActorSourceSceneFileTest, AnimationAndAnimeActorsReadTheirKeys) {
       {"name": "fox", "character": "chars/Fox.glb", "animation": "Run", "loops": 3, "scale": 0.01},
       {"name": "bear", "anime": "/data/bear.anime", "source_fps": 25, "up": "z", "seconds": 4.5}]})",
                                                    "/scenes/s.json");
-  const scene::SceneActor& fox = file.scene.actors[0];
-  EXPECT_EQ(fox.source, scene::ActorSourceKind::animation);
-  EXPECT_EQ(fox.animation.character_path, "/scenes/chars/Fox.glb");
-  EXPECT_EQ(fox.animation.animation, "Run");
-  EXPECT_EQ(fox.animation.length.loops, 3);
-  EXPECT_DOUBLE_EQ(fox.animation.scale, 0.01);
-  EXPECT_DOUBLE_EQ(fox.animation.fps, 24);
-  const scene::SceneActor& bear = file.scene.actors[1];
-  EXPECT_EQ(bear.source, scene::ActorSourceKind::anime);
-  EXPECT_EQ(bear.anime.path, "/data/bear.anime");
-  EXPECT_DOUBLE_EQ(bear.anime.source_fps, 25);
-  EXPECT_TRUE(bear.anime.up_z);
-  EXPECT_EQ(bear.anime.length.seconds, 4.5);
-  EXPECT_DOUBLE_EQ(bear.anime.fps, 24);
+  ASSERT_TRUE(std::holds_alternative<scene::AnimationRequest>(file.scene.actors[0].source));
+  const scene::AnimationRequest& fox = std::get<scene::AnimationRequest>(file.scene.actors[0].source);
+  EXPECT_EQ(fox.character_path, "/scenes/chars/Fox.glb");
+  EXPECT_EQ(fox.animation, "Run");
+  EXPECT_EQ(fox.length.loops, 3);
+  EXPECT_DOUBLE_EQ(fox.scale, 0.01);
+  EXPECT_DOUBLE_EQ(fox.fps, 24);
+  ASSERT_TRUE(std::holds_alternative<scene::AnimeRequest>(file.scene.actors[1].source));
+  const scene::AnimeRequest& bear = std::get<scene::AnimeRequest>(file.scene.actors[1].source);
+  EXPECT_EQ(bear.path, "/data/bear.anime");
+  EXPECT_DOUBLE_EQ(bear.source_fps, 25);
+  EXPECT_TRUE(bear.up_z);
+  EXPECT_EQ(bear.length.seconds, 4.5);
+  EXPECT_DOUBLE_EQ(bear.fps, 24);
 }
 
 TEST(ActorSourceSceneFileTest, MixedUpSourcesAreNamedByTheirJsonPath) {

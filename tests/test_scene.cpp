@@ -85,12 +85,15 @@ TEST(SceneFileTest, PathsResolveAgainstTheFileOrTheBundledData) {
           "props": [{"type": "mesh", "path": "/abs/table.obj", "up": "z"}]})",
       "/some/where/shot.json");
   const scene::SceneActor& actor = file.scene.actors[0];
-  EXPECT_EQ(fs::path(actor.retarget.motion_path), fs::path(scene::bundled_data_folder()) / "mocap/cmu_walk_cgspeed.bvh");
-  EXPECT_EQ(actor.retarget.character_path, "/some/where/chars/c.glb");
-  EXPECT_EQ(actor.retarget.quality, retarget::Quality::balanced);
-  EXPECT_EQ(actor.retarget.refine_options.contact_lift, 0.05);
-  EXPECT_EQ(file.scene.actors[1].retarget.refine_options.contact_lift, 0.03);
-  EXPECT_FALSE(file.scene.actors[2].retarget.refine_options.contact_lift);
+  const auto request = [&](std::size_t a) -> const scene::RetargetRequest& {
+    return std::get<scene::RetargetRequest>(file.scene.actors[a].source);
+  };
+  EXPECT_EQ(fs::path(request(0).motion_path), fs::path(scene::bundled_data_folder()) / "mocap/cmu_walk_cgspeed.bvh");
+  EXPECT_EQ(request(0).character_path, "/some/where/chars/c.glb");
+  EXPECT_EQ(request(0).quality, retarget::Quality::balanced);
+  EXPECT_EQ(request(0).refine_options.contact_lift, 0.05);
+  EXPECT_EQ(request(1).refine_options.contact_lift, 0.03);
+  EXPECT_FALSE(request(2).refine_options.contact_lift);
   EXPECT_EQ(actor.placement.kind, scene::Placement::Kind::fixed);
   EXPECT_DOUBLE_EQ(actor.placement.yaw_deg, 30);
   EXPECT_DOUBLE_EQ(actor.trim_start_s, 0.5);
