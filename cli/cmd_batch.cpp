@@ -22,7 +22,7 @@ namespace odyssey::cli {
 namespace fs = std::filesystem;
 namespace {
 
-// Exit codes (README, "Batches").
+// Exit codes (docs/batches.md).
 constexpr int kExitFailed = 1;   // some job failed
 constexpr int kExitFlagged = 3;  // no job failed, some exceeded a gate
 
@@ -219,7 +219,7 @@ int run_batch(const std::vector<std::string>& arguments) {
   args.list_option("motions", "PATH", "motion files (BVH, AMASS npz), folders searched recursively, or globs")
       .list_option("characters", "PATH", "character files (.glb, .gltf, .vrm), folders or globs; a bone map "
                                          "<character>.map.json beside a character is used for it")
-      .option("manifest", "FILE", "a JSON or CSV list of jobs instead of --motions and --characters (README: Batches)")
+      .option("manifest", "FILE", "a JSON or CSV list of jobs instead of --motions and --characters (docs/batches.md)")
       .option("out", "DIR", "the batch's folder (required)")
       .option("jobs", "N", "worker processes (default: the number of cores)")
       .option("timeout", "SECONDS", "fail a job that runs longer than this (default: no limit)")

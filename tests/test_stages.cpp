@@ -109,13 +109,21 @@ TEST(StagesTest, OwnFrameLoopGivesRunScenesArrays) {
     for (std::size_t c = 0; c < cameras.size(); ++c) {
       loop.classify(c, [&](const scene::CameraFrame& frame) {
         ++frames_seen;
-        // A visible actor point's pixel holds a triangle of its own actor (points are numbered
-        // actor after actor, 300 each).
+        // A visible actor point has a pixel of its own actor within one pixel of it (points are
+        // numbered actor after actor, 300 each): the pixel holding it is sampled at its centre,
+        // up to 0.7 px away, and on a silhouette may show what lies behind.
         for (std::size_t i = 0; i < 600; ++i) {
           if (frame.codes[i] != io::kVisible) continue;
           ++visible;
           const int x = static_cast<int>(frame.uv[2 * i]), y = static_cast<int>(frame.uv[2 * i + 1]);
-          visible_on_their_owner += frame.owner(frame.depth->triangle_at(x, y)) == static_cast<int>(i / 300);
+          bool found = false;
+          for (int dy = -1; dy <= 1; ++dy) {
+            for (int dx = -1; dx <= 1; ++dx) {
+              const std::uint32_t t = frame.depth->triangle_at(x + dx, y + dy);
+              found |= t != 0xffffffff && frame.owner(t) == static_cast<int>(i / 300);
+            }
+          }
+          visible_on_their_owner += found;
         }
       });
     }
@@ -132,9 +140,7 @@ TEST(StagesTest, OwnFrameLoopGivesRunScenesArrays) {
   }
   EXPECT_EQ(frames_seen, static_cast<long>(cameras.size()) * prepared.frames);
   ASSERT_GT(visible, 1000);
-  // Pixel centres and points differ by up to half a pixel: at a silhouette edge the pixel may
-  // hold what lies behind.
-  EXPECT_GT(static_cast<double>(visible_on_their_owner) / visible, 0.97);
+  EXPECT_GT(static_cast<double>(visible_on_their_owner) / visible, 0.995);
 
   for (std::size_t c = 0; c < cameras.size(); ++c) {
     const io::NpzReader file(scratch("run_scene/trajectories_" + prepared.cameras[c].name + ".npz").string());
