@@ -33,9 +33,13 @@ int run_scene(const std::vector<std::string>& arguments) {
             "  retarget_<actor>.json      the actor's retargeting report\n"
             "  report.json                the scene's report: placements, visibility figures, work skipped\n"
             "odyssey scene --example prints a documented scene that runs as printed from any folder; the\n"
-            "README documents every key. On any error nothing is written.");
+            "docs/scenes.md documents every key. On any error nothing is written.");
   args.positional("SCENE", "the scene file (JSON)")
       .option("out", "DIR", "output folder (created when missing; required)")
+      .option("layout", "files|pointodyssey",
+              "files: trajectories_<camera>.npz beside the other outputs; pointodyssey: one sequence folder per\n"
+              "camera, <scene>_<camera>/ (anno.npz, info.npz, depths/, normals/, masks/, scene_info.json; the dense\n"
+              "maps as the scene's outputs ask: depth, normals, masks; docs/sequences.md) (default: the scene file's)")
       .flag("example", "print an example scene file and stop")
       .flag("quiet", "print only the closing summary");
   if (!args.parse(arguments)) return 0;
@@ -45,6 +49,11 @@ int run_scene(const std::vector<std::string>& arguments) {
   }
   const std::string out = args.get("out");
   scene::SceneFile file = scene::read_scene_file(args.get("SCENE"));
+  if (args.has("layout")) {
+    const std::string layout = args.get("layout");
+    if (layout != "files" && layout != "pointodyssey") throw UsageError("--layout expects files or pointodyssey, got '" + layout + "'");
+    file.outputs.layout = layout == "files" ? scene::OutputSelection::Layout::files : scene::OutputSelection::Layout::pointodyssey;
+  }
   std::filesystem::create_directories(out);
   scene::set_outputs_in_folder(file.scene, out, file.outputs);
   const bool quiet = args.get_flag("quiet");

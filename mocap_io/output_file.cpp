@@ -57,7 +57,12 @@ void TempFile::commit() {
 StagedOutputs::~StagedOutputs() {
   std::error_code ignored;
   for (const Entry& entry : entries_) {
-    if (!entry.committed) std::filesystem::remove(entry.temp, ignored);
+    if (entry.committed) continue;
+    if (entry.folder) {
+      std::filesystem::remove_all(entry.temp, ignored);
+    } else {
+      std::filesystem::remove(entry.temp, ignored);
+    }
   }
 }
 
@@ -70,20 +75,46 @@ std::string StagedOutputs::stage(const std::string& target) {
   return entries_.back().temp;
 }
 
+std::string StagedOutputs::stage_folder(const std::string& target) {
+  const std::string temp = stage(target);
+  entries_.back().folder = true;
+  std::error_code error;
+  if (!std::filesystem::create_directory(temp, error) || error) {
+    entries_.pop_back();
+    throw InputError(target, "cannot create the folder " + temp + (error ? ": " + error.message() : ""));
+  }
+  return temp;
+}
+
 void StagedOutputs::commit() {
+  namespace fs = std::filesystem;
+  // A folder's previous version (a rerun's) is moved aside first, since a rename cannot replace a
+  // folder that holds files, and removed once every output is in place.
+  std::vector<std::string> aside;
+  const auto roll_back = [&] {
+    std::error_code ignored;
+    for (Entry& done : entries_) {
+      if (done.committed && done.folder) fs::remove_all(done.target, ignored);
+      if (done.committed && !done.folder) fs::remove(done.target, ignored);
+      done.committed = false;
+    }
+    for (const std::string& old : aside) fs::rename(old + ".previous-" + std::to_string(::getpid()), old, ignored);
+  };
   for (Entry& entry : entries_) {
     std::error_code error;
-    std::filesystem::rename(entry.temp, entry.target, error);
+    if (entry.folder && fs::is_directory(fs::symlink_status(entry.target))) {
+      fs::rename(entry.target, entry.target + ".previous-" + std::to_string(::getpid()), error);
+      if (!error) aside.push_back(entry.target);
+    }
+    if (!error) fs::rename(entry.temp, entry.target, error);
     if (error) {
-      for (Entry& done : entries_) {
-        std::error_code ignored;
-        if (done.committed) std::filesystem::remove(done.target, ignored);
-        done.committed = false;
-      }
+      roll_back();
       throw InputError(entry.target, "cannot rename " + entry.temp + " into place: " + error.message());
     }
     entry.committed = true;
   }
+  std::error_code ignored;
+  for (const std::string& old : aside) fs::remove_all(old + ".previous-" + std::to_string(::getpid()), ignored);
 }
 
 void write_file_atomically(const std::string& path, std::span<const std::byte> bytes) {

@@ -48,11 +48,16 @@ class StagedOutputs {
 
   // Throws std::invalid_argument when `target` is already staged (two outputs naming one file).
   std::string stage(const std::string& target);
+  // A folder that appears whole or not at all: the temporary folder is created here (its parent
+  // must exist) for writers to fill, renamed onto `target` by commit(), removed with its contents
+  // otherwise. InputError naming the target when it cannot be created.
+  std::string stage_folder(const std::string& target);
   void commit();
 
  private:
   struct Entry {
     std::string target, temp;
+    bool folder = false;
     bool committed = false;
   };
   std::vector<Entry> entries_;

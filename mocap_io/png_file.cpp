@@ -2,6 +2,7 @@
 
 #include <png.h>
 
+#include <bit>
 #include <csetjmp>
 #include <stdexcept>
 
@@ -11,7 +12,7 @@
 namespace odyssey::io {
 namespace {
 
-// libpng reports errors by longjmp back to the setjmp in write_png_rgb; the message is kept here.
+// libpng reports errors by longjmp back to the setjmp in write_png; the message is kept here.
 struct ErrorState {
   std::string message;
 };
@@ -25,10 +26,16 @@ void on_warning(png_structp, png_const_charp) {}
 
 }  // namespace
 
-void write_png_rgb(const std::string& path, int width, int height, std::span<const std::uint8_t> rgb) {
-  if (width < 1 || height < 1 || rgb.size() != std::size_t(width) * std::size_t(height) * 3) {
-    throw std::invalid_argument("png: " + std::to_string(rgb.size()) + " bytes for a " + std::to_string(width) + "x" +
-                                std::to_string(height) + " RGB image");
+namespace {
+
+// One image of `channels` samples of `bit_depth` bits a pixel, rows from the top; 16-bit samples
+// in the machine's order (PNG stores them big-endian: libpng swaps).
+void write_png(const std::string& path, int width, int height, int channels, int bit_depth, std::span<const std::uint8_t> bytes) {
+  const std::size_t row_bytes = std::size_t(width) * channels * (bit_depth / 8);
+  if (width < 1 || height < 1 || bytes.size() != row_bytes * std::size_t(height)) {
+    throw std::invalid_argument("png: " + std::to_string(bytes.size()) + " bytes for a " + std::to_string(width) + "x" +
+                                std::to_string(height) + " image of " + std::to_string(channels) + " channel(s) at " +
+                                std::to_string(bit_depth) + " bits");
   }
   TempFile file(path);
   ErrorState state;
@@ -44,13 +51,29 @@ void write_png_rgb(const std::string& path, int width, int height, std::span<con
     throw InputError(path, "libpng: " + state.message);
   }
   png_init_io(png, file.get());
-  png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8, PNG_COLOR_TYPE_RGB,
-               PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), bit_depth,
+               channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+               PNG_FILTER_TYPE_DEFAULT);
   png_write_info(png, info);
-  for (int y = 0; y < height; ++y) png_write_row(png, rgb.data() + std::size_t(y) * width * 3);
+  if (bit_depth == 16 && std::endian::native == std::endian::little) png_set_swap(png);
+  for (int y = 0; y < height; ++y) png_write_row(png, bytes.data() + std::size_t(y) * row_bytes);
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
   file.commit();
+}
+
+}  // namespace
+
+void write_png_rgb(const std::string& path, int width, int height, std::span<const std::uint8_t> rgb) {
+  write_png(path, width, height, 3, 8, rgb);
+}
+
+void write_png_gray8(const std::string& path, int width, int height, std::span<const std::uint8_t> gray) {
+  write_png(path, width, height, 1, 8, gray);
+}
+
+void write_png_gray16(const std::string& path, int width, int height, std::span<const std::uint16_t> gray) {
+  write_png(path, width, height, 1, 16, std::span(reinterpret_cast<const std::uint8_t*>(gray.data()), gray.size() * 2));
 }
 
 }  // namespace odyssey::io

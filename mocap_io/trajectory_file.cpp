@@ -127,6 +127,7 @@ struct Archive {
   Spool intrinsics;
   Spool extrinsics;
   std::unique_ptr<Spool> visibility_codes;  // when the header asks for them
+  std::unique_ptr<Spool> visibilities;      // likewise
 };
 
 }  // namespace
@@ -173,6 +174,10 @@ TrajectoryFileWriter::TrajectoryFileWriter(std::string path, TrajectoryFileHeade
   s.archive = std::make_unique<Archive>(s.path, compress, N);
   if (s.header.visibility_codes) {
     s.archive->visibility_codes = std::make_unique<Spool>(s.path, "visibility_codes", DType::UInt8, std::vector<std::size_t>{N});
+  }
+  if (s.header.visibilities) {
+    if (!s.header.visibility_codes) throw std::invalid_argument("trajectory file: visibilities are derived from visibility_codes");
+    s.archive->visibilities = std::make_unique<Spool>(s.path, "visibilities", DType::UInt8, std::vector<std::size_t>{N});
   }
   s.archive->npz.begin_array("trajs_3d", DType::Float32, {T, N, 3});
 }
@@ -239,6 +244,13 @@ void TrajectoryFileWriter::append_frames(std::size_t count, std::span<const floa
     archive.intrinsics.write(std::as_bytes(intrinsics));
     archive.extrinsics.write(std::as_bytes(extrinsics));
     if (archive.visibility_codes) archive.visibility_codes->write(std::as_bytes(visibility_codes));
+    if (archive.visibilities) {
+      std::vector<std::uint8_t> three_state(visibility_codes.size());
+      for (std::size_t i = 0; i < three_state.size(); ++i) {
+        three_state[i] = visibility_codes[i] == kVisible ? 1 : visibility_codes[i] == kBehindCamera ? 2 : 0;
+      }
+      archive.visibilities->write(std::as_bytes(std::span<const std::uint8_t>(three_state)));
+    }
   } catch (...) {
     s.archive.reset();  // the arrays are out of step now: remove everything
     throw;
@@ -264,6 +276,7 @@ void TrajectoryFileWriter::close() {
   for (Spool* spool : {&archive.trajs_2d, &archive.visibs, &archive.valids, &archive.intrinsics, &archive.extrinsics})
     spool->copy_into(archive.npz, h.frames, buffer);
   if (archive.visibility_codes) archive.visibility_codes->copy_into(archive.npz, h.frames, buffer);
+  if (archive.visibilities) archive.visibilities->copy_into(archive.npz, h.frames, buffer);
   archive.npz.add("point_vertex_ids", NpyArray::from_int32(h.point_vertex_ids, {N, 3}));
   archive.npz.add("point_barycentric", NpyArray::from_float32(h.point_barycentric, {N, 3}));
   archive.npz.add("point_actor_ids", NpyArray::from_int32(h.point_actor_ids, {N}));

@@ -22,6 +22,9 @@
 //                                         odyssey trajectories): 0 visible, 1 occluded by an actor
 //                                         (its own body included), 2 occluded by a prop, 3 outside
 //                                         the image, 4 behind the camera
+//   visibilities       uint8   [T, N]     PointOdyssey's three states, when the header asks for them
+//                                         (sequences): 1 visible, 2 behind the camera, 0 otherwise
+//                                         (occluded or outside the image); the toolkit has no far limit
 //   fps                float64 []         frames per second
 //
 // float32 throughout, never float16 (half floats resolve only half a pixel past 512 px).
@@ -52,6 +55,7 @@ struct TrajectoryFileHeader {
   std::vector<float> point_barycentric;        // N x 3
   std::vector<std::int32_t> point_actor_ids;   // N
   bool visibility_codes = false;               // write visibility_codes [T, N]
+  bool visibilities = false;                   // and visibilities [T, N] from them (needs the codes)
 };
 
 // The values of visibility_codes.

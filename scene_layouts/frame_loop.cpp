@@ -162,7 +162,7 @@ struct FrameLoop::CameraState {
 int CameraFrame::owner(std::uint32_t triangle) const {
   const auto range = std::upper_bound(owner_ranges.begin(), owner_ranges.end(), triangle,
                                       [](std::uint32_t t, const auto& r) { return t < r.first; });
-  return range != owner_ranges.end() ? range->second : -1;
+  return range != owner_ranges.end() ? range->second : kNoOwner;
 }
 
 FrameLoop::FrameLoop(std::span<const StreamActor> actors, const StreamProps* props, std::span<const StreamCamera> cameras,
@@ -240,6 +240,11 @@ FrameLoop::FrameLoop(std::span<const StreamActor> actors, const StreamProps* pro
       for (const Eigen::Vector3f& p : mesh.positions) prop_vertices_.insert(prop_vertices_.end(), {p.x(), p.y(), p.z()});
     }
     prop_triangles_ = all_triangles(props->character);
+    std::uint32_t end = 0;
+    for (const CharacterMesh& mesh : props->character.meshes) {
+      end += static_cast<std::uint32_t>(mesh.triangles.size() / 3);
+      prop_triangle_ends_.push_back(end);
+    }
     if (tracking_) {
       for (const skinning::SurfacePoint& point : props->points) {
         const CharacterMesh& mesh = props->character.meshes.at(point.mesh);
@@ -424,7 +429,9 @@ void FrameLoop::classify(std::size_t c, const CameraFrameCallback& on_frame) {
       out.drawn = now;
       out.triangles = prop_triangles_;
       out.owner_ranges.clear();
-      out.owner_ranges.push_back({static_cast<std::uint32_t>(out.triangles.size() / 3), -1});
+      for (std::size_t p = 0; p < prop_triangle_ends_.size(); ++p) {
+        out.owner_ranges.push_back({prop_triangle_ends_[p], -1 - static_cast<int>(p)});
+      }
       std::uint32_t offset = static_cast<std::uint32_t>(prop_vertices_.size() / 3);
       for (std::size_t a = 0; a < actors; ++a) {
         if (!now[a]) continue;
@@ -492,7 +499,7 @@ void FrameLoop::classify(std::size_t c, const CameraFrameCallback& on_frame) {
       for (int col = 0; col < 4; ++col) out.extrinsics[f * 16 + r * 4 + col] = static_cast<float>(e(r, col));
     }
     if (on_frame) {
-      on_frame(CameraFrame{static_cast<int>(c), static_cast<int>(frame), &buffer, ranges, std::span<const float>(uv, n * 2),
+      on_frame(CameraFrame{static_cast<int>(c), static_cast<int>(frame), &pose, &buffer, ranges, std::span<const float>(uv, n * 2),
                            std::span<const std::uint8_t>(valid, n), std::span<const std::uint8_t>(code, n)});
     }
   }

@@ -41,6 +41,7 @@
 #pragma once
 
 #include <array>
+#include <climits>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -117,14 +118,17 @@ struct FrameChunk {
 // One camera's frame as classify() left it: the depth buffer's last render and the points.
 struct CameraFrame {
   int camera = 0, frame = 0;
+  const CameraPose* pose = nullptr;
   const DepthBuffer* depth = nullptr;
-  // The render's triangles in ranges [previous end, end) -> owner (an actor's index, or -1 for
-  // the props), ends increasing.
+  // The render's triangles in ranges [previous end, end) -> owner (an actor's index a >= 0, or
+  // -1 - k for prop k), ends increasing.
   std::span<const std::pair<std::uint32_t, int>> owner_ranges;
   std::span<const float> uv;                   // N x 2
   std::span<const std::uint8_t> valid, codes;  // N
 
-  // The owner of triangle t of the render: an actor's index, or -1 for a prop.
+  static constexpr int kNoOwner = INT32_MIN;
+  // The owner of triangle t of the render: an actor's index, -1 - k for prop k, or kNoOwner for
+  // an index past the render's triangles (triangle_at's empty pixel).
   int owner(std::uint32_t triangle) const;
 };
 using CameraFrameCallback = std::function<void(const CameraFrame&)>;
@@ -190,6 +194,7 @@ class FrameLoop {
   std::vector<CameraState> cameras_state_;
   std::vector<float> prop_vertices_, prop_points_;
   std::vector<std::uint32_t> prop_triangles_;
+  std::vector<std::uint32_t> prop_triangle_ends_;  // per prop: the end of its triangles in prop_triangles_
   std::vector<Eigen::AlignedBox3d> prop_boxes_;
   std::vector<float> trajs_3d_;
   std::vector<char> sees_;  // sees_[(f C + c) A + a]: camera c may see actor a in frame f of the chunk

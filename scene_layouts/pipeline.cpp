@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "mocap_io/input_error.h"
+#include "scene_layouts/pointodyssey.h"
 #include "scene_layouts/preview.h"
 #include "scene_layouts/sinks.h"
 
@@ -25,7 +26,9 @@ std::string obj_beside(const std::string& pc2) { return std::filesystem::path(pc
 
 }  // namespace
 
-bool tracks_points(const SceneOutputs& outputs) { return any_path(outputs.trajectories) || any_path(outputs.previews); }
+bool tracks_points(const SceneOutputs& outputs) {
+  return any_path(outputs.trajectories) || any_path(outputs.previews) || any_path(outputs.sequences);
+}
 
 std::vector<std::unique_ptr<StreamSink>> open_sinks(const Scene& scene, const Shot& shot, io::StagedOutputs& staged) {
   const SceneOutputs& outputs = scene.outputs;
@@ -33,13 +36,21 @@ std::vector<std::unique_ptr<StreamSink>> open_sinks(const Scene& scene, const Sh
   for (std::size_t c = 0; c < shot.cameras.size(); ++c) {
     if (asked(outputs.previews, c)) sinks.push_back(std::make_unique<ContactSheetSink>(static_cast<int>(c), shot.frames, outputs.previews[c], staged));
   }
-  if (any_path(outputs.trajectories)) {
+  if (outputs.dense.any() && !any_path(outputs.sequences)) {
+    throw std::invalid_argument("scene outputs: depth, normals and masks are written into sequence folders (layout pointodyssey)");
+  }
+  if (any_path(outputs.trajectories) || any_path(outputs.sequences)) {
     const std::vector<StreamActor> actors = stream_actors(shot);
     const io::TrajectoryFileHeader header = trajectory_file_header(actors, stream_props(shot), shot.frames, shot.fps);
     if (header.points == 0) throw std::invalid_argument("scene: trajectories asked for, but no points to track");
     for (std::size_t c = 0; c < shot.cameras.size(); ++c) {
       if (!asked(outputs.trajectories, c)) continue;
       sinks.push_back(std::make_unique<TrajectorySink>(static_cast<int>(c), outputs.trajectories[c], header, outputs.compress, staged));
+    }
+    const std::vector<Instance> instances = shot_instances(scene, shot);
+    for (std::size_t c = 0; c < shot.cameras.size(); ++c) {
+      if (!asked(outputs.sequences, c)) continue;
+      sinks.push_back(std::make_unique<PointOdysseySink>(static_cast<int>(c), outputs.sequences[c], header, outputs.dense, instances, staged));
     }
   }
   for (std::size_t a = 0; a < shot.actors.size(); ++a) {
@@ -84,7 +95,9 @@ SceneResult run_sinks(Shot shot, const Scene& scene, std::span<const std::unique
   const bool meshes = std::find(mesh_every_frame.begin(), mesh_every_frame.end(), true) != mesh_every_frame.end();
   if (tracking || meshes) {
     std::vector<bool> tracks(result.cameras.size());
-    for (std::size_t c = 0; c < tracks.size(); ++c) tracks[c] = asked(outputs.trajectories, c) || asked(outputs.previews, c);
+    for (std::size_t c = 0; c < tracks.size(); ++c) {
+      tracks[c] = asked(outputs.trajectories, c) || asked(outputs.previews, c) || asked(outputs.sequences, c);
+    }
     const std::vector<StreamActor> actors = stream_actors(result, mesh_every_frame);
     const std::vector<StreamCamera> cameras = stream_cameras(result, tracks);
     StreamOptions options;

@@ -30,11 +30,11 @@ struct SceneResult : Shot {
   } seconds;
 };
 
-// Whether the scene's outputs need tracked points (trajectories or contact sheets).
+// Whether the scene's outputs need tracked points (trajectories, sequences or contact sheets).
 bool tracks_points(const SceneOutputs& outputs);
 
 // The sinks for the files `scene.outputs` names, in the order their files are listed (contact
-// sheets, trajectories, point caches, camera paths, the character GLB, the scene GLB, the scene's
+// sheets, trajectories, sequences, point caches, camera paths, the character GLB, the scene GLB, the scene's
 // report, the actors' reports), each staged in `staged`. Throws std::invalid_argument when
 // trajectories are asked for with no points, io::InputError for a point cache of a character
 // without a mesh.

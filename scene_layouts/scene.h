@@ -63,10 +63,14 @@ struct SceneActor {
   skinning::SamplingMode sampling = skinning::SamplingMode::surface;
 };
 
+// What a prop is in a sequence's masks (pointodyssey.h); a ground prop is always ground.
+enum class PropCategory { prop, ground, structure };
+
 struct Prop {
   enum class Kind { ground, box, mesh };
   Kind kind = Kind::box;
   std::string name;
+  PropCategory category = PropCategory::prop;
   Eigen::Vector3d size = Eigen::Vector3d::Ones();  // ground: x, y; box: x, y, z (metres)
   std::string path;                                // mesh: .glb, .gltf or .obj
   bool up_z = false;                               // mesh from OBJ: already Z up
@@ -164,6 +168,13 @@ inline int rides_on(const SceneCamera& camera) {
   return ego ? ego->actor : -1;
 }
 
+// Dense per-pixel maps of a sequence (dense_maps.h), computed only when asked.
+struct DenseOutputs {
+  bool depth = false, normals = false, masks = false;
+  bool exact = false;  // also the float32 maps as .npy beside the images
+  bool any() const { return depth || normals || masks; }
+};
+
 // Files to write; an empty path asks for nothing. Vectors are empty or one entry per camera
 // (trajectories, camera paths) or per actor (point caches, with the rest OBJ beside each).
 struct SceneOutputs {
@@ -180,6 +191,10 @@ struct SceneOutputs {
   bool compress = false;          // deflate the trajectory npz members
   int chunk_frames = 0;           // 0: about 16 MiB of output per chunk
   int threads = 1;                // skinning threads
+  // Per camera: a sequence folder in the PointOdyssey layout (pointodyssey.h), with the dense maps
+  // `dense` asks for.
+  std::vector<std::string> sequences;
+  DenseOutputs dense;
 };
 
 struct Scene {
@@ -200,6 +215,9 @@ struct OutputSelection {
   bool trajectories = true, camera_paths = true, point_caches = false, actor_reports = false, report = true;
   bool previews = false;  // DIR/preview_<camera>.png
   bool glb = false;       // DIR/scene.glb
+  // pointodyssey: DIR/<scene>_<camera>/ sequence folders instead of DIR/trajectories_<camera>.npz
+  enum class Layout { files, pointodyssey };
+  Layout layout = Layout::files;
 };
 void set_outputs_in_folder(Scene& scene, const std::string& folder, const OutputSelection& which);
 

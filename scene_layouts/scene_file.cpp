@@ -229,11 +229,23 @@ SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& 
 }
 
 Prop read_prop(const JsonValue& item, std::size_t index, const fs::path& base) {
-  item.allow_only({"name", "type", "size", "path", "up", "position", "yaw", "scale"});
+  item.allow_only({"name", "type", "size", "path", "up", "position", "yaw", "scale", "category"});
   Prop prop;
   prop.name = name_of(item, "prop" + std::to_string(index));
   const JsonValue type = item.member("type");
   const std::string kind = type.string();
+  if (const auto category = item.find("category")) {
+    const std::string name = category->string();
+    if (kind == "ground") category->fail("a ground's category is ground");
+    if (name == "prop") {
+      prop.category = PropCategory::prop;
+    } else if (name == "structure") {
+      prop.category = PropCategory::structure;
+    } else {
+      category->fail("expected prop or structure");
+    }
+  }
+  if (kind == "ground") prop.category = PropCategory::ground;
   if (kind == "ground") {
     prop.kind = Prop::Kind::ground;
     const JsonValue size = item.member("size");
@@ -497,7 +509,8 @@ SceneFile parse_scene(const std::string& json_text, const std::string& path) {
   }
   if (const auto outputs = root.find("outputs")) {
     outputs->allow_only({"trajectories", "camera_paths", "point_caches", "actor_reports", "report", "previews", "glb", "points_per_actor",
-                         "prop_points", "body_points_only", "compress", "threads"});
+                         "prop_points", "body_points_only", "compress", "threads", "layout", "depth", "normals", "masks",
+                         "exact_maps"});
     OutputSelection& which = file.outputs;
     if (const auto value = outputs->find("trajectories")) which.trajectories = value->boolean();
     if (const auto value = outputs->find("camera_paths")) which.camera_paths = value->boolean();
@@ -513,6 +526,20 @@ SceneFile parse_scene(const std::string& json_text, const std::string& path) {
     if (const auto value = outputs->find("body_points_only")) out.body_points_only = value->boolean();
     if (const auto value = outputs->find("compress")) out.compress = value->boolean();
     if (const auto value = outputs->find("threads")) out.threads = static_cast<int>(value->integer(1, 1024));
+    if (const auto value = outputs->find("layout")) {
+      const std::string layout = value->string();
+      if (layout == "files") {
+        which.layout = OutputSelection::Layout::files;
+      } else if (layout == "pointodyssey") {
+        which.layout = OutputSelection::Layout::pointodyssey;
+      } else {
+        value->fail("expected files or pointodyssey");
+      }
+    }
+    if (const auto value = outputs->find("depth")) out.dense.depth = value->boolean();
+    if (const auto value = outputs->find("normals")) out.dense.normals = value->boolean();
+    if (const auto value = outputs->find("masks")) out.dense.masks = value->boolean();
+    if (const auto value = outputs->find("exact_maps")) out.dense.exact = value->boolean();
     if (out.prop_points > 0 && scene.props.empty()) outputs->member("prop_points").fail("the scene has no props");
     if (which.trajectories && scene.cameras.empty()) outputs->member("trajectories").fail("trajectories need a camera");
   }
@@ -540,8 +567,11 @@ void set_outputs_in_folder(Scene& scene, const std::string& folder, const Output
   out.previews.clear();
   out.point_caches.clear();
   out.actor_reports.clear();
+  out.sequences.clear();
+  const bool sequences = which.layout == OutputSelection::Layout::pointodyssey;
   for (const SceneCamera& camera : scene.cameras) {
-    if (which.trajectories) out.trajectories.push_back((dir / ("trajectories_" + camera.name + ".npz")).string());
+    if (which.trajectories && sequences) out.sequences.push_back((dir / (scene.name + "_" + camera.name)).string());
+    if (which.trajectories && !sequences) out.trajectories.push_back((dir / ("trajectories_" + camera.name + ".npz")).string());
     if (which.camera_paths) out.camera_paths.push_back((dir / ("camera_" + camera.name + ".json")).string());
     if (which.previews) out.previews.push_back((dir / ("preview_" + camera.name + ".png")).string());
   }

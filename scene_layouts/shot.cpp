@@ -71,6 +71,7 @@ void validate_scene(const Scene& scene) {
     require(paths.empty() || paths.size() == count, std::string("scene outputs: ") + what + " needs one path per " + of);
   };
   per(out.trajectories, scene.cameras.size(), "trajectories", "camera");
+  per(out.sequences, scene.cameras.size(), "sequences", "camera");
   per(out.previews, scene.cameras.size(), "previews", "camera");
   per(out.camera_paths, scene.cameras.size(), "camera_paths", "camera");
   per(out.point_caches, scene.actors.size(), "point_caches", "actor");
@@ -133,8 +134,6 @@ ActorMotion build_motion(const AnimeRequest& request, const ProgressCallback& pr
   report_played(motion, "load_anime", progress);
   return motion;
 }
-
-int root_joint(const PlacedActor& actor) { return actor.motion->root_joint; }
 
 // A static character of one joint at the identity whose meshes are the props in world
 // coordinates, rigidly bound to it.

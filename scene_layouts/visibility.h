@@ -146,6 +146,13 @@ class DepthBuffer {
   // The triangle (index in the last render's list) drawn nearest at pixel (x, y), or 0xffffffff
   // where nothing was drawn or outside the image.
   std::uint32_t triangle_at(int x, int y) const;
+  // The last render's triangles (3 corners each, as render() was given them) and its vertices in
+  // camera coordinates: what the triangle IDs of triangle_at() index.
+  std::span<const std::uint32_t> triangles() const { return triangles_; }
+  std::span<const Eigen::Vector3d> camera_vertices() const { return camera_; }
+  // The last render's intrinsics; empty before a successful render().
+  const std::optional<PinholeIntrinsics>& intrinsics() const { return intrinsics_; }
+
   // |cos| of the angle between a triangle of the last render and the ray to its centre (1: seen
   // face on, 0: edge on or degenerate), for flat shading.
   double facing(std::uint32_t triangle) const;
