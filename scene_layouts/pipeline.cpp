@@ -1,5 +1,6 @@
 #include "scene_layouts/pipeline.h"
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 

@@ -1,6 +1,7 @@
 #include "scene_layouts/shot.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -156,10 +157,20 @@ StreamProps build_props(const std::vector<Prop>& props) {
       if (!((h.array() > 0).all() && h.allFinite())) {
         throw std::invalid_argument("prop '" + prop.name + "': a box needs a positive size x, y, z");
       }
-      for (int c = 0; c < 8; ++c) positions.emplace_back(c & 1 ? h.x() : -h.x(), c & 2 ? h.y() : -h.y(), c & 4 ? h.z() : 0.0);
-      // Two triangles per face, outward winding.
-      triangles = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
-                   2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+      // Corner c of the box is (+-x, +-y, 0 or z) by its bits; two triangles per face, outward
+      // winding. Each face gets its own four vertices, so a face's vertex normals are its own
+      // normal: renderers shade the box flat and the normal maps (dense_maps.h) agree.
+      constexpr std::array<std::uint32_t, 36> kFaces = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+                                                        2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+      for (std::size_t face = 0; face < 6; ++face) {
+        std::map<std::uint32_t, std::uint32_t> vertex_of_corner;
+        for (std::size_t k = 6 * face; k < 6 * face + 6; ++k) {
+          const std::uint32_t c = kFaces[k];
+          const auto [slot, added] = vertex_of_corner.try_emplace(c, static_cast<std::uint32_t>(positions.size()));
+          if (added) positions.emplace_back(c & 1 ? h.x() : -h.x(), c & 2 ? h.y() : -h.y(), c & 4 ? h.z() : 0.0);
+          triangles.push_back(slot->second);
+        }
+      }
     } else {
       std::string extension = std::filesystem::path(prop.path).extension().string();
       std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return char(std::tolower(c)); });
