@@ -66,7 +66,28 @@ StagedOutputs::~StagedOutputs() {
   }
 }
 
+void require_replaceable_output(const std::string& target, bool folder) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  const fs::file_status status = fs::status(target, error);
+  if (error || !fs::exists(status)) return;
+  const char* what = fs::is_regular_file(status) ? "a file"
+                     : fs::is_directory(status)  ? "a folder"
+                     : fs::is_character_file(status) || fs::is_block_file(status) ? "a device"
+                     : fs::is_fifo(status)       ? "a FIFO"
+                     : fs::is_socket(status)     ? "a socket"
+                                                 : "not a regular file";
+  if (folder ? fs::is_directory(status) : fs::is_regular_file(status)) return;
+  throw InputError(target, std::string("exists and is ") + what + ", not " + (folder ? "a folder" : "a regular file") +
+                               ": an output never replaces it");
+}
+
 std::string StagedOutputs::stage(const std::string& target) {
+  require_replaceable_output(target);
+  return stage_path(target);
+}
+
+std::string StagedOutputs::stage_path(const std::string& target) {
   const std::filesystem::path absolute = std::filesystem::absolute(target);
   for (const Entry& entry : entries_) {
     if (std::filesystem::absolute(entry.target) == absolute) throw std::invalid_argument("two outputs name " + target);
@@ -76,7 +97,8 @@ std::string StagedOutputs::stage(const std::string& target) {
 }
 
 std::string StagedOutputs::stage_folder(const std::string& target) {
-  const std::string temp = stage(target);
+  require_replaceable_output(target, true);
+  const std::string temp = stage_path(target);
   entries_.back().folder = true;
   std::error_code error;
   if (!std::filesystem::create_directory(temp, error) || error) {

@@ -34,6 +34,12 @@ class TempFile {
   bool committed_ = false;
 };
 
+// Throws InputError naming `target` when it exists and is not what an output may replace: a regular
+// file (or, with `folder`, a folder), followed through symbolic links. A device, FIFO or socket is
+// never replaced by an output (renaming onto /dev/null would replace the node), nor a folder by a
+// file or a file by a folder.
+void require_replaceable_output(const std::string& target, bool folder = false);
+
 // Outputs that appear together or not at all: the one way a command, a scene or a batch job
 // commits files. stage() names a temporary path beside each target (same folder, so the rename
 // cannot cross file systems) for a writer to fill; commit() renames them all into place, in order,
@@ -46,7 +52,8 @@ class StagedOutputs {
   StagedOutputs(const StagedOutputs&) = delete;
   StagedOutputs& operator=(const StagedOutputs&) = delete;
 
-  // Throws std::invalid_argument when `target` is already staged (two outputs naming one file).
+  // Throws std::invalid_argument when `target` is already staged (two outputs naming one file),
+  // InputError when it may not be replaced (require_replaceable_output).
   std::string stage(const std::string& target);
   // A folder that appears whole or not at all: the temporary folder is created here (its parent
   // must exist) for writers to fill, renamed onto `target` by commit(), removed with its contents
@@ -55,6 +62,8 @@ class StagedOutputs {
   void commit();
 
  private:
+  std::string stage_path(const std::string& target);  // the entry and its temporary name
+
   struct Entry {
     std::string target, temp;
     bool folder = false;

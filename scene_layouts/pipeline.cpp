@@ -25,6 +25,26 @@ bool asked(const std::vector<std::string>& paths, std::size_t i) { return i < pa
 // The rest OBJ beside a point cache: the same path with .obj.
 std::string obj_beside(const std::string& pc2) { return std::filesystem::path(pc2).replace_extension(".obj").string(); }
 
+// Every output path the scene names may be replaced (io::require_replaceable_output), checked
+// before any work is done.
+void require_replaceable_outputs(const SceneOutputs& outputs) {
+  for (const std::vector<std::string>* paths : {&outputs.trajectories, &outputs.camera_paths, &outputs.point_caches,
+                                                &outputs.previews, &outputs.rest_objs, &outputs.actor_reports}) {
+    for (const std::string& path : *paths) {
+      if (!path.empty()) io::require_replaceable_output(path);
+    }
+  }
+  for (const std::string& path : outputs.point_caches) {
+    if (!path.empty() && outputs.rest_objs.empty()) io::require_replaceable_output(obj_beside(path));
+  }
+  for (const std::string* path : {&outputs.glb, &outputs.scene_glb, &outputs.report}) {
+    if (!path->empty()) io::require_replaceable_output(*path);
+  }
+  for (const std::string& path : outputs.sequences) {
+    if (!path.empty()) io::require_replaceable_output(path, true);
+  }
+}
+
 }  // namespace
 
 bool tracks_points(const SceneOutputs& outputs) {
@@ -133,6 +153,7 @@ SceneResult run_sinks(Shot shot, const Scene& scene, std::span<const std::unique
 
 SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, LoadCache* cache) {
   const auto started = Clock::now();
+  require_replaceable_outputs(scene.outputs);
   PrepareOptions options;
   options.sample_points = tracks_points(scene.outputs);
   Shot shot = prepare_shot(scene, options, progress, cache);

@@ -94,8 +94,17 @@ TEST(SequencesCliTest, LoadersReadEverySequence) {
     EXPECT_GT(figures["depth_agrees"].get<double>(), 0.9);
   }
   EXPECT_TRUE(fs::exists(out / "scene.glb"));
+
+  // A rerun replaces each sequence whole: a file the first run did not write goes with it.
+  std::ofstream(out / "pair_orbit" / "stale.txt") << "from before";
+  const test_support::CliResult again = test_support::run_cli("scene " + scene.string() + " --out " + out.string() +
+                                                              " --layout pointodyssey --quiet");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_FALSE(fs::exists(out / "pair_orbit" / "stale.txt"));
+  EXPECT_TRUE(fs::exists(out / "pair_orbit" / "anno.npz"));
   for (const auto& entry : fs::directory_iterator(out)) {
     EXPECT_FALSE(contains(entry.path().filename().string(), ".partial-")) << "left behind: " << entry.path();
+    EXPECT_FALSE(contains(entry.path().filename().string(), ".previous-")) << "left behind: " << entry.path();
   }
 }
 
@@ -108,6 +117,16 @@ TEST(SequencesCliTest, BadLayoutsFailAndWriteNothing) {
   EXPECT_NE(unknown.exit_code, 0);
   EXPECT_TRUE(contains(unknown.output, "--layout expects files or pointodyssey, got 'kubric'")) << unknown.output;
   EXPECT_TRUE(!fs::exists(out) || fs::is_empty(out));
+
+  // A file where a sequence folder goes is refused before any work, and kept.
+  fs::create_directories(out);
+  std::ofstream(out / "pair_head") << "not a folder";
+  const test_support::CliResult blocked = test_support::run_cli("scene " + scene.string() + " --out " + out.string() +
+                                                                " --layout pointodyssey");
+  EXPECT_NE(blocked.exit_code, 0);
+  EXPECT_TRUE(contains(blocked.output, (out / "pair_head").string() + ": exists and is a file, not a folder")) << blocked.output;
+  EXPECT_EQ(test_support::files_in(out), std::vector<std::string>{"pair_head"});
+  fs::remove(out / "pair_head");
 
   const fs::path in_file = write_scene(dir / "in_file", small_scene(R"({"layout": "pointodyssey", "depth": 1})"));
   const test_support::CliResult typed = test_support::run_cli("scene " + in_file.string() + " --out " + out.string());
