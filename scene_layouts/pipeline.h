@@ -10,8 +10,10 @@
 // it; joints left out by `parts` are not solved.
 #pragma once
 
+#include <chrono>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
