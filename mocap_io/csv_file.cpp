@@ -1,6 +1,7 @@
 #include "mocap_io/csv_file.h"
 
 #include <algorithm>
+#include <string_view>
 
 #include "mocap_io/input_error.h"
 #include "mocap_io/json_reader.h"
@@ -13,7 +14,10 @@ std::optional<std::size_t> CsvTable::column(const std::string& name) const {
   return static_cast<std::size_t>(found - header.begin());
 }
 
-CsvTable parse_csv(const std::string& text, const std::string& file) {
+CsvTable parse_csv(const std::string& file_text, const std::string& file) {
+  // A UTF-8 byte-order mark (spreadsheets write one) is not part of the first column's name.
+  const std::string_view bom = "\xEF\xBB\xBF";
+  const std::string text = std::string_view(file_text).starts_with(bom) ? file_text.substr(bom.size()) : file_text;
   CsvTable table;
   table.file = file;
   std::vector<std::vector<std::string>> records;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "mocap_io/input_error.h"
@@ -121,13 +122,56 @@ JsonDocument JsonDocument::parse(const std::string& text, const std::string& nam
   JsonDocument document;
   document.name_ = name;
   // nlohmann's parser keeps its own stack; the callback sees each value's depth and stops a
-  // document nested deeper than any person writes before it is built.
-  const nlohmann::json::parser_callback_t depth_limit = [&](int depth, nlohmann::json::parse_event_t, nlohmann::json&) {
+  // document nested deeper than any person writes before it is built. It also follows the open
+  // objects and arrays, so that a key given twice in one object (nlohmann keeps the last) is an
+  // error naming its JSON path.
+  struct Open {
+    bool array = false;
+    long index = -1;       // array: the element being read
+    std::string key;       // object: the key being read
+    std::set<std::string> keys;
+  };
+  std::vector<Open> open;
+  const auto path = [&] {
+    std::string text;
+    for (const Open& level : open) {
+      text += level.array ? "[" + std::to_string(level.index) + "]" : (text.empty() ? "" : ".") + level.key;
+    }
+    return text;
+  };
+  const auto next_element = [&] {
+    if (!open.empty() && open.back().array) ++open.back().index;
+  };
+  using Event = nlohmann::json::parse_event_t;
+  const nlohmann::json::parser_callback_t follow = [&](int depth, Event event, nlohmann::json& parsed) {
     if (depth > kMaxJsonDepth) throw InputError(name, "nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    switch (event) {
+      case Event::object_start:
+      case Event::array_start:
+        next_element();
+        open.push_back(Open{event == Event::array_start, -1, {}, {}});
+        break;
+      case Event::object_end:
+      case Event::array_end:
+        if (!open.empty()) open.pop_back();
+        break;
+      case Event::key: {
+        const std::string key = parsed.get<std::string>();
+        if (!open.empty() && !open.back().keys.insert(key).second) {
+          open.back().key = key;
+          throw InputError(name, path() + ": the key \"" + key + "\" is given twice in one object");
+        }
+        if (!open.empty()) open.back().key = key;
+        break;
+      }
+      case Event::value:
+        next_element();
+        break;
+    }
     return true;
   };
   try {
-    document.json_ = nlohmann::json::parse(text, depth_limit);
+    document.json_ = nlohmann::json::parse(text, follow);
   } catch (const nlohmann::json::exception& error) {
     // parse_error, and out_of_range for a number too large for a double (1e99999).
     throw InputError(name, std::string("not valid JSON: ") + error.what());

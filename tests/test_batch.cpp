@@ -146,6 +146,12 @@ TEST(BatchManifest, ErrorsNameTheManifestTheRowAndTheColumn) {
             csv + ": line 1, column 3: unknown column 'colour' (columns: betas, bvh_units, character, fps, map, model, "
                   "motion, name, outputs, parts, quality, scene, source_map)");
   EXPECT_TRUE(contains(error_of("m.csv", "motion,character\na.bvh,b.glb\n\"unterminated,b.glb\n"), "line 3"));
+  // A spreadsheet's UTF-8 byte-order mark is not part of the first column's name.
+  write(dir / "bom.csv", "\xEF\xBB\xBFmotion,character\na.bvh,b.glb\n");
+  EXPECT_EQ(read_manifest((dir / "bom.csv").string(), JobDefaults{}).size(), 1u);
+  // A key given twice in one object is refused, naming its path (nlohmann would keep the last).
+  EXPECT_TRUE(contains(error_of("m.json", R"({"jobs": [{"motion": "a.bvh", "character": "b.glb"}, {"motion": "a.bvh", "character": "b.glb", "motion": "c.bvh"}]})"),
+                       "m.json: jobs[1].motion: the key \"motion\" is given twice in one object"));
   EXPECT_EQ(error_of("m.csv", "motion,character\na.bvh,b.glb\nb.bvh\n"),
             csv + ": line 3: 1 fields, the header has 2");
   EXPECT_EQ(error_of("m.csv", "motion,character,quality\na.bvh,,fast\n"),

@@ -48,6 +48,11 @@ TEST(SceneFileTest, ErrorsNameTheFileAndTheJsonPath) {
                        "shot.json: lights: unknown key"));
   EXPECT_TRUE(contains(parse_error(R"({"version": 1, "actors": [{"motion": "a.bvh"}]})"), "actors[0].character: missing"));
   EXPECT_TRUE(contains(parse_error(R"({"actors": [)" + actor + "]}"), "shot.json: version: missing"));
+  EXPECT_TRUE(contains(parse_error(R"({"version": 1, "actors": [)" + actor + "," +
+                                   R"({"motion": "a.bvh", "character": "c.glb", "placement": {"x": 0, "x": 1}}]})"),
+                       "shot.json: actors[1].placement.x: the key \"x\" is given twice in one object"));
+  EXPECT_TRUE(contains(parse_error(R"({"version": 1, "version": 1, "actors": [)" + actor + "]}"),
+                       "shot.json: version: the key \"version\" is given twice in one object"));
   EXPECT_TRUE(contains(parse_error(R"({"version": 2, "actors": [)" + actor + "]}"), "version: version 2 is not one"));
   EXPECT_TRUE(contains(parse_error(R"({"version": 1, "actors": []})"), "actors: a scene needs at least one actor"));
   EXPECT_TRUE(contains(parse_error(R"({"version": 1, "actors": [)" + actor + R"(], "cameras": [{"type": "ego", "actor": "nobody"}]})"),
