@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <variant>
 
 #include "mocap_io/input_error.h"
 #include "scene_layouts/pointodyssey.h"
@@ -25,24 +26,61 @@ bool asked(const std::vector<std::string>& paths, std::size_t i) { return i < pa
 // The rest OBJ beside a point cache: the same path with .obj.
 std::string obj_beside(const std::string& pc2) { return std::filesystem::path(pc2).replace_extension(".obj").string(); }
 
-// Every output path the scene names may be replaced (io::require_replaceable_output), checked
-// before any work is done.
-void require_replaceable_outputs(const SceneOutputs& outputs) {
-  for (const std::vector<std::string>* paths : {&outputs.trajectories, &outputs.camera_paths, &outputs.point_caches,
-                                                &outputs.previews, &outputs.rest_objs, &outputs.actor_reports}) {
-    for (const std::string& path : *paths) {
-      if (!path.empty()) io::require_replaceable_output(path);
+// Every file the scene reads: its own scene file, motions, characters, maps, body models, anime meshes, prop meshes,
+// camera files.
+std::vector<std::string> scene_inputs(const Scene& scene) {
+  std::vector<std::string> inputs = {scene.file};
+  for (const SceneActor& actor : scene.actors) {
+    if (const auto* r = std::get_if<RetargetRequest>(&actor.source)) {
+      inputs.insert(inputs.end(), {r->motion_path, r->character_path, r->map_path.value_or(""), r->source_map_path.value_or(""),
+                                   r->model_path.value_or("")});
+    } else if (const auto* a = std::get_if<AnimationRequest>(&actor.source)) {
+      inputs.push_back(a->character_path);
+    } else if (const auto* m = std::get_if<AnimeRequest>(&actor.source)) {
+      inputs.push_back(m->path);
     }
   }
+  for (const Prop& prop : scene.props) inputs.push_back(prop.path);
+  for (const SceneCamera& camera : scene.cameras) {
+    if (const auto* file = std::get_if<FileRig>(&camera.rig)) inputs.push_back(file->path);
+    if (const auto* imported = std::get_if<ImportedRig>(&camera.rig)) inputs.push_back(imported->path);
+  }
+  std::erase(inputs, std::string());
+  return inputs;
+}
+
+// The output `path` is not one of the inputs: the same file by its path made absolute and
+// normal, or by device and inode where both exist (links, other spellings).
+void require_not_an_input(const std::string& path, const std::vector<std::string>& inputs) {
+  namespace fs = std::filesystem;
+  const fs::path normal = fs::absolute(path).lexically_normal();
+  for (const std::string& input : inputs) {
+    std::error_code error;
+    if (fs::absolute(input).lexically_normal() == normal || fs::equivalent(input, path, error)) {
+      throw io::InputError(path, "is also an input of this run (" + input + "): an output never replaces an input");
+    }
+  }
+}
+
+// Every output path the scene names may be replaced (io::require_replaceable_output) and is not an
+// input of the scene, checked before any work is done.
+void require_replaceable_outputs(const Scene& scene) {
+  const SceneOutputs& outputs = scene.outputs;
+  const std::vector<std::string> inputs = scene_inputs(scene);
+  const auto check = [&](const std::string& path, bool folder) {
+    if (path.empty()) return;
+    io::require_replaceable_output(path, folder);
+    require_not_an_input(path, inputs);
+  };
+  for (const std::vector<std::string>* paths : {&outputs.trajectories, &outputs.camera_paths, &outputs.point_caches,
+                                                &outputs.previews, &outputs.rest_objs, &outputs.actor_reports}) {
+    for (const std::string& path : *paths) check(path, false);
+  }
   for (const std::string& path : outputs.point_caches) {
-    if (!path.empty() && outputs.rest_objs.empty()) io::require_replaceable_output(obj_beside(path));
+    if (!path.empty() && outputs.rest_objs.empty()) check(obj_beside(path), false);
   }
-  for (const std::string* path : {&outputs.glb, &outputs.scene_glb, &outputs.report}) {
-    if (!path->empty()) io::require_replaceable_output(*path);
-  }
-  for (const std::string& path : outputs.sequences) {
-    if (!path.empty()) io::require_replaceable_output(path, true);
-  }
+  for (const std::string* path : {&outputs.glb, &outputs.scene_glb, &outputs.report}) check(*path, false);
+  for (const std::string& path : outputs.sequences) check(path, true);
 }
 
 }  // namespace
@@ -153,7 +191,7 @@ SceneResult run_sinks(Shot shot, const Scene& scene, std::span<const std::unique
 
 SceneResult run_scene(const Scene& scene, const ProgressCallback& progress, LoadCache* cache) {
   const auto started = Clock::now();
-  require_replaceable_outputs(scene.outputs);
+  require_replaceable_outputs(scene);
   PrepareOptions options;
   options.sample_points = tracks_points(scene.outputs);
   Shot shot = prepare_shot(scene, options, progress, cache);

@@ -199,6 +199,7 @@ struct SceneOutputs {
 
 struct Scene {
   std::string name = "scene";
+  std::string file;  // the scene file it was read from, if any: an input like the others
   double fps = 30;
   std::optional<double> seconds;
   std::uint64_t seed = 0;

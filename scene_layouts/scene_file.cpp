@@ -555,7 +555,11 @@ SceneFile parse_scene(const std::string& json_text, const std::string& path) {
   return file;
 }
 
-SceneFile read_scene_file(const std::string& path) { return parse_scene(io::read_text_file(path), path); }
+SceneFile read_scene_file(const std::string& path) {
+  SceneFile file = parse_scene(io::read_text_file(path), path);
+  file.scene.file = path;
+  return file;
+}
 
 std::string example_scene_json() { return io::read_text_file((fs::path(bundled_data_folder()) / "scenes" / "indoor.json").string()); }
 

@@ -70,5 +70,40 @@ TEST(OutputPathsCliTest, AFifoADeviceOrAFolderAsOutIsRefusedAndKept) {
   }
 }
 
+TEST(OutputPathsCliTest, AnOutputThatIsAnInputIsRefusedAndTheInputKept) {
+  const fs::path dir = test_support::scratch_dir("outputs_cli");
+  const fs::path motion = dir / "walk.bvh", character = dir / "figure.glb";
+  fs::copy_file(kData + "/mocap/cmu_walk_cgspeed.bvh", motion);
+  fs::copy_file(kData + "/characters/RiggedFigure.glb", character);
+  const auto size = fs::file_size(motion);
+  const std::string inputs = "retarget --motion " + motion.string() + " --character " + character.string();
+
+  test_support::CliResult run = test_support::run_cli(inputs + " --out " + (dir / "out.glb").string() + " --report " + motion.string());
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_TRUE(contains(run.output, motion.string() + ": is also an input of this run (" + motion.string() + ")")) << run.output;
+  EXPECT_EQ(fs::file_size(motion), size);
+  EXPECT_FALSE(fs::exists(dir / "out.glb"));
+
+  // The same file by another spelling, and through a link.
+  fs::create_symlink(character, dir / "link.glb");
+  run = test_support::run_cli(inputs + " --out " + (dir / "link.glb").string());
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_TRUE(contains(run.output, "is also an input of this run")) << run.output;
+  run = test_support::run_cli(inputs + " --out " + (dir / "." / "figure.glb").string());
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_TRUE(contains(run.output, "is also an input of this run")) << run.output;
+  EXPECT_TRUE(fs::is_symlink(dir / "link.glb"));
+
+  // A scene whose report would land on the scene file itself.
+  fs::create_directories(dir / "out");
+  std::ofstream(dir / "out" / "report.json") << R"({"version": 1, "actors": [{"motion": ")" << motion.string()
+                                              << R"(", "character": ")" << character.string() << R"("}], "cameras": [{"type": "orbit"}]})";
+  const auto scene_size = fs::file_size(dir / "out" / "report.json");
+  run = test_support::run_cli("scene " + (dir / "out" / "report.json").string() + " --out " + (dir / "out").string());
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_TRUE(contains(run.output, "report.json: is also an input of this run")) << run.output;
+  EXPECT_EQ(fs::file_size(dir / "out" / "report.json"), scene_size);
+}
+
 }  // namespace
 }  // namespace odyssey
