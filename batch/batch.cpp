@@ -119,10 +119,9 @@ std::vector<std::string> job_inputs(const Job& job) {
     files.push_back(job.scene_path);
     const scene::SceneFile file = scene::read_scene_file(job.scene_path);
     for (const scene::SceneActor& actor : file.scene.actors) {
-      // As before the variant, a played source (animation, anime) adds an empty request: its "" cannot
-      // be hashed, so the job gets no key and is never resumed. Listing its own file would fix that.
-      const auto* request = std::get_if<scene::RetargetRequest>(&actor.source);
-      request_files(request ? *request : scene::RetargetRequest{});
+      if (const auto* request = std::get_if<scene::RetargetRequest>(&actor.source)) request_files(*request);
+      if (const auto* animation = std::get_if<scene::AnimationRequest>(&actor.source)) files.push_back(animation->character_path);
+      if (const auto* anime = std::get_if<scene::AnimeRequest>(&actor.source)) files.push_back(anime->path);
     }
     for (const scene::Prop& prop : file.scene.props) {
       if (!prop.path.empty()) files.push_back(prop.path);

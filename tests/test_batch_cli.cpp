@@ -253,6 +253,22 @@ TEST(BatchCli, ARerunSkipsWhatIsDoneAndRedoesWhatChanged) {
   EXPECT_EQ(report_jobs(out / "report.json").size(), 6u);
 }
 
+TEST(BatchCli, ASceneJobWithAPlayedSourceIsResumed) {
+  // Its key hashes the played character's file (it hashed an empty path, so it never resumed).
+  const fs::path dir = scratch();
+  write(dir / "fox.json", R"({"version": 1, "name": "fox", "seconds": 1, "actors": [{"name": "fox", "character": ")" +
+                              std::string(ODYSSEY_DATA_DIR) + R"(/characters/Fox.glb", "animation": "Walk", "scale": 0.01}],
+      "cameras": [{"type": "orbit", "width": 160, "height": 90}], "outputs": {"points_per_actor": 200}})");
+  write(dir / "jobs.csv", "scene\nfox.json\n");
+  const fs::path out = dir / "out";
+  const std::string arguments = "batch --manifest " + quoted(dir / "jobs.csv") + " --out " + quoted(out);
+  auto result = run_cli(arguments);
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  result = run_cli(arguments);
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_TRUE(contains(result.output, "1 jobs: 1 done (1 earlier), 0 failed")) << result.output;
+}
+
 TEST(BatchCli, BadListsShardsManifestsAndAnotherBatchsFolderAreRefusedInOneLine) {
   const fs::path dir = scratch();
   const Inputs inputs = make_inputs(dir);
