@@ -30,7 +30,10 @@ namespace {
 
 // One image of `channels` samples of `bit_depth` bits a pixel, rows from the top; 16-bit samples
 // in the machine's order (PNG stores them big-endian: libpng swaps).
-void write_png(const std::string& path, int width, int height, int channels, int bit_depth, std::span<const std::uint8_t> bytes) {
+// `fast`: zlib's fastest level (the per-frame maps of a sequence; about 3 times faster to write
+// than the default for 10-20% larger files), else its default.
+void write_png(const std::string& path, int width, int height, int channels, int bit_depth, std::span<const std::uint8_t> bytes,
+               bool fast = false) {
   const std::size_t row_bytes = std::size_t(width) * channels * (bit_depth / 8);
   if (width < 1 || height < 1 || bytes.size() != row_bytes * std::size_t(height)) {
     throw std::invalid_argument("png: " + std::to_string(bytes.size()) + " bytes for a " + std::to_string(width) + "x" +
@@ -51,6 +54,7 @@ void write_png(const std::string& path, int width, int height, int channels, int
     throw InputError(path, "libpng: " + state.message);
   }
   png_init_io(png, file.get());
+  if (fast) png_set_compression_level(png, 1);
   png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), bit_depth,
                channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
                PNG_FILTER_TYPE_DEFAULT);
@@ -69,11 +73,11 @@ void write_png_rgb(const std::string& path, int width, int height, std::span<con
 }
 
 void write_png_gray8(const std::string& path, int width, int height, std::span<const std::uint8_t> gray) {
-  write_png(path, width, height, 1, 8, gray);
+  write_png(path, width, height, 1, 8, gray, true);
 }
 
 void write_png_gray16(const std::string& path, int width, int height, std::span<const std::uint16_t> gray) {
-  write_png(path, width, height, 1, 16, std::span(reinterpret_cast<const std::uint8_t*>(gray.data()), gray.size() * 2));
+  write_png(path, width, height, 1, 16, std::span(reinterpret_cast<const std::uint8_t*>(gray.data()), gray.size() * 2), true);
 }
 
 }  // namespace odyssey::io

@@ -7,7 +7,7 @@
 
 namespace odyssey::scene {
 
-void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps) {
+void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps, bool normals) {
   const DepthBuffer& buffer = *frame.depth;
   if (!buffer.intrinsics()) throw std::invalid_argument("dense maps of a frame that was not rendered");
   const PinholeIntrinsics& k = *buffer.intrinsics();
@@ -16,8 +16,8 @@ void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps) {
 
   // Area-weighted vertex normals in camera space: the sum of the cross products (twice the area
   // times the unit normal) of the triangles using the vertex.
-  std::vector<Eigen::Vector3d> vertex_normals(vertices.size(), Eigen::Vector3d::Zero());
-  for (std::size_t t = 0; t + 2 < triangles.size(); t += 3) {
+  std::vector<Eigen::Vector3d> vertex_normals(normals ? vertices.size() : 0, Eigen::Vector3d::Zero());
+  for (std::size_t t = 0; normals && t + 2 < triangles.size(); t += 3) {
     const Eigen::Vector3d& a = vertices[triangles[t]];
     const Eigen::Vector3d n = (vertices[triangles[t + 1]] - a).cross(vertices[triangles[t + 2]] - a);
     for (int c = 0; c < 3; ++c) vertex_normals[triangles[t + c]] += n;
@@ -27,7 +27,7 @@ void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps) {
   maps.height = buffer.height();
   const std::size_t pixels = std::size_t(maps.width) * maps.height;
   maps.depth.assign(pixels, std::numeric_limits<float>::infinity());
-  maps.normals.assign(pixels * 3, 0.0f);
+  maps.normals.assign(normals ? pixels * 3 : 0, 0.0f);
   maps.instances.assign(pixels, 0);
   const Eigen::Matrix3d to_world = frame.pose->rotation.transpose();
   for (int y = 0; y < maps.height; ++y) {
@@ -37,6 +37,7 @@ void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps) {
       const std::size_t pixel = std::size_t(y) * maps.width + x;
       maps.depth[pixel] = buffer.depth(x, y);
       maps.instances[pixel] = static_cast<std::uint16_t>(instance_id(frame.owner(triangle), actors));
+      if (!normals) continue;
       const std::size_t t = 3 * std::size_t{triangle};
       const Eigen::Vector3d& a = vertices[triangles[t]];
       const Eigen::Vector3d& b = vertices[triangles[t + 1]];

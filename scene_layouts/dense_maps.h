@@ -35,7 +35,8 @@ struct DenseMaps {
 };
 
 // Fills `maps` (resized to the frame's image) from the frame's last render; `actors` is the
-// shot's actor count. Reuses the maps' memory from frame to frame.
-void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps);
+// shot's actor count. Normals, the costly part, only when `normals` (else left empty). Reuses the
+// maps' memory from frame to frame.
+void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps, bool normals = true);
 
 }  // namespace odyssey::scene

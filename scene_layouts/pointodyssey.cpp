@@ -83,7 +83,7 @@ void PointOdysseySink::camera_frame(const CameraFrame& frame) {
   if (frame.camera != camera_ || !(dense_.depth || dense_.normals || dense_.masks)) return;
   const int actors = static_cast<int>(std::count_if(instances_.begin(), instances_.end(),
                                                     [](const Instance& i) { return i.kind == "actor"; }));
-  fill_dense_maps(frame, actors, maps_);
+  fill_dense_maps(frame, actors, maps_, dense_.normals);
   const std::size_t pixels = std::size_t(maps_.width) * maps_.height;
   const auto width = static_cast<std::size_t>(maps_.width), height = static_cast<std::size_t>(maps_.height);
   if (dense_.depth) {
