@@ -93,7 +93,7 @@ int run_scene(const std::vector<std::string>& arguments) {
   std::printf("timings    retarget %.3f s, frames %.3f s (%.0f frames/s), total %.3f s\n", result.seconds.retarget,
               result.seconds.streams, result.seconds.streams > 0 ? result.frames / result.seconds.streams : 0.0,
               result.seconds.total);
-  std::printf("wrote      %zu files into %s\n", result.outputs.size(), out.c_str());
+  std::printf("wrote      %zu outputs into %s\n", result.outputs.size(), out.c_str());
   return 0;
 }
 

@@ -16,7 +16,8 @@ void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps, bool
 
   // Area-weighted vertex normals in camera space: the sum of the cross products (twice the area
   // times the unit normal) of the triangles using the vertex.
-  std::vector<Eigen::Vector3d> vertex_normals(normals ? vertices.size() : 0, Eigen::Vector3d::Zero());
+  std::vector<Eigen::Vector3d>& vertex_normals = maps.vertex_normals;
+  vertex_normals.assign(normals ? vertices.size() : 0, Eigen::Vector3d::Zero());
   for (std::size_t t = 0; normals && t + 2 < triangles.size(); t += 3) {
     const Eigen::Vector3d& a = vertices[triangles[t]];
     const Eigen::Vector3d n = (vertices[triangles[t + 1]] - a).cross(vertices[triangles[t + 2]] - a);

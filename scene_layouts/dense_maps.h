@@ -16,6 +16,7 @@
 // px outside it) and renormalised.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -32,6 +33,7 @@ struct DenseMaps {
   std::vector<float> depth;               // width x height, row-major from the top
   std::vector<float> normals;             // width x height x 3
   std::vector<std::uint16_t> instances;  // width x height
+  std::vector<Eigen::Vector3d> vertex_normals;  // scratch: the render's vertex normals (camera space)
 };
 
 // Fills `maps` (resized to the frame's image) from the frame's last render; `actors` is the

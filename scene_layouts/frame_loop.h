@@ -41,7 +41,6 @@
 #pragma once
 
 #include <array>
-#include <climits>
 #include <cstddef>
 #include <cstdint>
 #include <functional>

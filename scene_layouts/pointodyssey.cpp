@@ -69,10 +69,10 @@ PointOdysseySink::PointOdysseySink(int camera, const std::string& folder, const 
                                 " instances (actors and props) do not fit 8-bit masks, which hold 255");
   }
   staged_ = staged.stage_folder(folder);
-  for (const char* sub : {"depths", "normals", "masks"}) {
-    const bool asked = sub[0] == 'd' ? dense_.depth : sub[0] == 'n' ? dense_.normals : dense_.masks;
-    if (asked) fs::create_directory(fs::path(staged_) / sub);
-  }
+  if (dense_.depth) fs::create_directory(fs::path(staged_) / "depths");
+  if (dense_.normals) fs::create_directory(fs::path(staged_) / "normals");
+  if (dense_.masks) fs::create_directory(fs::path(staged_) / "masks");
+  actors_ = static_cast<int>(std::count_if(instances_.begin(), instances_.end(), [](const Instance& i) { return i.kind == "actor"; }));
   io::TrajectoryFileHeader anno = header;
   anno.visibility_codes = true;
   anno.visibilities = true;
@@ -80,10 +80,8 @@ PointOdysseySink::PointOdysseySink(int camera, const std::string& folder, const 
 }
 
 void PointOdysseySink::camera_frame(const CameraFrame& frame) {
-  if (frame.camera != camera_ || !(dense_.depth || dense_.normals || dense_.masks)) return;
-  const int actors = static_cast<int>(std::count_if(instances_.begin(), instances_.end(),
-                                                    [](const Instance& i) { return i.kind == "actor"; }));
-  fill_dense_maps(frame, actors, maps_, dense_.normals);
+  if (frame.camera != camera_ || !dense_.any()) return;
+  fill_dense_maps(frame, actors_, maps_, dense_.normals);
   const std::size_t pixels = std::size_t(maps_.width) * maps_.height;
   const auto width = static_cast<std::size_t>(maps_.width), height = static_cast<std::size_t>(maps_.height);
   if (dense_.depth) {

@@ -64,6 +64,7 @@ class PointOdysseySink : public StreamSink {
   std::string folder_, staged_;
   DenseOutputs dense_;
   std::vector<Instance> instances_;
+  int actors_ = 0;  // instances_ that are actors (they come first)
   std::size_t frames_, points_;
   std::unique_ptr<io::TrajectoryFileWriter> anno_;
   DenseMaps maps_;

@@ -37,12 +37,7 @@ void PointCacheSink::write(const FrameChunk& chunk) { writer_->append_frames(chu
 
 void PointCacheSink::finish(const SceneResult&) { writer_->close(); }
 
-CameraPathSink::CameraPathSink(int camera, const std::string& path, io::StagedOutputs& staged)
-    : camera_(camera), path_(path), staged_(staged.stage(path)) {}
-
 void CameraPathSink::finish(const SceneResult& result) { io::write_camera_path_json(staged_, result.cameras.at(camera_).path); }
-
-CharacterGlbSink::CharacterGlbSink(const std::string& path, io::StagedOutputs& staged) : path_(path), staged_(staged.stage(path)) {}
 
 void CharacterGlbSink::finish(const SceneResult& result) {
   const RetargetedActor& actor = *result.actors.at(0).retargeted;
@@ -55,8 +50,6 @@ void CharacterGlbSink::finish(const SceneResult& result) {
   io::write_animated_glb(actor.request.character_path, actor.character, result.actors[0].clip, staged_, options);
 }
 
-SceneGlbSink::SceneGlbSink(const std::string& path, io::StagedOutputs& staged) : path_(path), staged_(staged.stage(path)) {}
-
 void SceneGlbSink::finish(const SceneResult& result) {
   std::vector<io::SceneGlbActor> actors;
   for (const PlacedActor& actor : result.actors) {
@@ -66,9 +59,6 @@ void SceneGlbSink::finish(const SceneResult& result) {
   for (const ShotCamera& camera : result.cameras) cameras.push_back({camera.name, &camera.path});
   io::write_scene_glb(staged_, actors, result.props.names.empty() ? nullptr : &result.props.character, cameras, result.fps);
 }
-
-ActorReportSink::ActorReportSink(int actor, const std::string& path, std::string glb, io::StagedOutputs& staged)
-    : actor_(actor), path_(path), staged_(staged.stage(path)), glb_(std::move(glb)) {}
 
 void ActorReportSink::finish(const SceneResult& result) {
   nlohmann::ordered_json json = actor_motion_report_json(*result.actors.at(actor_).motion);
@@ -85,8 +75,6 @@ void ActorReportSink::finish(const SceneResult& result) {
   json["timings_s"]["command"]["total"] = result.seconds.total;
   io::write_file_atomically(staged_, json.dump(2) + "\n");
 }
-
-SceneReportSink::SceneReportSink(const std::string& path, io::StagedOutputs& staged) : path_(path), staged_(staged.stage(path)) {}
 
 void SceneReportSink::finish(const SceneResult& result) {
   io::write_file_atomically(staged_, scene_report_json(result).dump(2) + "\n");

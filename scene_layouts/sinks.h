@@ -51,66 +51,63 @@ class PointCacheSink : public StreamSink {
   std::unique_ptr<io::Pc2Writer> writer_;
 };
 
-// Camera `camera`'s path as JSON (mocap_io/camera_path_file.h).
-class CameraPathSink : public StreamSink {
+// A sink that writes one file at finish() from the shot's result: `path_` its final name,
+// `staged_` the name it writes under.
+class OneFileSink : public StreamSink {
  public:
-  CameraPathSink(int camera, const std::string& path, io::StagedOutputs& staged);
-  void finish(const SceneResult& result) override;
+  OneFileSink(const std::string& path, io::StagedOutputs& staged) : path_(path), staged_(staged.stage(path)) {}
   std::vector<std::string> files() const override { return {path_}; }
+
+ protected:
+  std::string path_, staged_;
+};
+
+// Camera `camera`'s path as JSON (mocap_io/camera_path_file.h).
+class CameraPathSink : public OneFileSink {
+ public:
+  CameraPathSink(int camera, const std::string& path, io::StagedOutputs& staged) : OneFileSink(path, staged), camera_(camera) {}
+  void finish(const SceneResult& result) override;
 
  private:
   int camera_;
-  std::string path_, staged_;
 };
 
 // The shot's one retargeted actor as an animated GLB, with the shot's first camera when it has one
 // (mocap_io/gltf_export.h).
-class CharacterGlbSink : public StreamSink {
+class CharacterGlbSink : public OneFileSink {
  public:
-  CharacterGlbSink(const std::string& path, io::StagedOutputs& staged);
+  using OneFileSink::OneFileSink;
   void finish(const SceneResult& result) override;
-  std::vector<std::string> files() const override { return {path_}; }
-
- private:
-  std::string path_, staged_;
 };
 
 // The whole shot as one GLB: every actor, prop and camera (mocap_io/scene_glb.h).
-class SceneGlbSink : public StreamSink {
+class SceneGlbSink : public OneFileSink {
  public:
-  SceneGlbSink(const std::string& path, io::StagedOutputs& staged);
+  using OneFileSink::OneFileSink;
   void finish(const SceneResult& result) override;
-  std::vector<std::string> files() const override { return {path_}; }
-
- private:
-  std::string path_, staged_;
 };
 
 // Actor `actor`'s retargeting report (actor_motion_report_json) with the shot's first camera and
 // timings; `glb`, when not empty, is the character GLB it describes (written relative to the
 // report's folder, so the pair can move together).
-class ActorReportSink : public StreamSink {
+class ActorReportSink : public OneFileSink {
  public:
-  ActorReportSink(int actor, const std::string& path, std::string glb, io::StagedOutputs& staged);
+  ActorReportSink(int actor, const std::string& path, std::string glb, io::StagedOutputs& staged)
+      : OneFileSink(path, staged), actor_(actor), glb_(std::move(glb)) {}
   void finish(const SceneResult& result) override;
   bool is_report() const override { return true; }
-  std::vector<std::string> files() const override { return {path_}; }
 
  private:
   int actor_;
-  std::string path_, staged_, glb_;
+  std::string glb_;
 };
 
 // The scene's report (scene_report_json).
-class SceneReportSink : public StreamSink {
+class SceneReportSink : public OneFileSink {
  public:
-  SceneReportSink(const std::string& path, io::StagedOutputs& staged);
+  using OneFileSink::OneFileSink;
   void finish(const SceneResult& result) override;
   bool is_report() const override { return true; }
-  std::vector<std::string> files() const override { return {path_}; }
-
- private:
-  std::string path_, staged_;
 };
 
 }  // namespace odyssey::scene

@@ -62,8 +62,9 @@ for k in range(T):
     H, W = mask.shape
     if depth.shape != (H, W) or np.array(normal_jpg).shape != (H, W, 3):
         fail("frame %d: the maps' sizes differ" % k)
-    if int(anno["intrinsics"][k][0, 2] * 2 + 0.5) != W or int(anno["intrinsics"][k][1, 2] * 2 + 0.5) != H:
-        fail("frame %d: the maps are %dx%d, the intrinsics' principal point says otherwise" % (k, W, H))
+    if (W, H) != (scene_info["camera"]["width"], scene_info["camera"]["height"]):
+        fail("frame %d: the maps are %dx%d, scene_info.json's camera is %dx%d"
+             % (k, W, H, scene_info["camera"]["width"], scene_info["camera"]["height"]))
     if set(np.unique(mask)) - set([0]) - set(instances):
         fail("frame %d: mask ids %s not in scene_info.json" % (k, sorted(set(np.unique(mask)) - set(instances))))
     uv = anno["trajs_2d"][k]
