@@ -294,6 +294,11 @@ class BulletWorld {
     btContactSolverInfo& info = world_.getSolverInfo();
     info.m_numIterations = model.scene().solver_iterations;
     info.m_solverMode &= ~SOLVER_RANDMIZE_ORDER;
+    // Every overlap is undone by split impulses (a position correction that leaves no velocity
+    // behind), not only those deeper than Bullet's 4 cm: a prop caught between an actor's moving
+    // bones, or pressed into the floor by a foot, is squeezed out instead of shot away.
+    info.m_splitImpulse = 1;
+    info.m_splitImpulsePenetrationThreshold = 0;
     const PhysicsScene& scene = model.scene();
     int id = 0;
     if (scene.ground) {

@@ -96,6 +96,9 @@ std::vector<ScatterPlacement> scatter_props(const ScatterRequest& request) {
       if (k > 0) arc[p].push_back(arc[p].back() + (path[k] - path[k - 1]).norm());
     }
   }
+  for (std::size_t k = 0; k < request.keep_out.size(); ++k)
+    if (!request.keep_out[k].centre.allFinite() || !(std::isfinite(request.keep_out[k].radius) && request.keep_out[k].radius >= 0))
+      throw bad("keep-out disc " + std::to_string(k) + " must have a finite centre and a finite radius >= 0");
   const Eigen::Vector2d size = request.region_max - request.region_min;
   double footprint_area = 0;
   for (std::size_t i = 0; i < count; ++i) {
@@ -118,6 +121,8 @@ std::vector<ScatterPlacement> scatter_props(const ScatterRequest& request) {
 
   std::vector<ScatterPlacement> placed;
   const auto free_at = [&](const Eigen::Vector2d& at, double r) {
+    for (const KeepOut& disc : request.keep_out)
+      if ((disc.centre - at).norm() < r + disc.radius + request.gap) return false;
     for (std::size_t j = 0; j < placed.size(); ++j)
       if ((placed[j].position - at).norm() < r + request.footprint_radii[j] + request.gap) return false;
     return true;

@@ -48,7 +48,13 @@ std::vector<Impulse> sample_impulses(const ImpulseSampling& sampling, std::span<
 // Placing props on the ground (z = 0 plane, positions in x y). Each prop is a disc of its footprint
 // radius; discs must not overlap (plus `gap`). The first `on_paths` props go on the polylines in
 // `paths` (prop i on path i mod paths.size(), uniformly by arc length; they may lie outside the
-// region), so walking actors meet them; the rest go inside the region with their whole disc.
+// region), so walking actors meet them; the rest go inside the region with their whole disc. No
+// disc may overlap a keep-out disc (where an actor stands at the first frame, a table's legs).
+struct KeepOut {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  double radius = 0;  // m, >= 0
+};
+
 struct ScatterRequest {
   std::uint64_t seed = 0;
   std::vector<double> footprint_radii;  // m, > 0
@@ -56,6 +62,7 @@ struct ScatterRequest {
   Eigen::Vector2d region_max = Eigen::Vector2d::Zero();
   std::vector<std::vector<Eigen::Vector2d>> paths;  // each at least 2 points
   int on_paths = 0;
+  std::vector<KeepOut> keep_out;
   double gap = 0;          // m, extra clearance between discs
   int max_attempts = 1000;  // draws per prop before giving up
 };

@@ -396,10 +396,12 @@ TEST(PhysicsTest, ScatterKeepsFootprintsApartAndOnPaths) {
   request.paths = {{{-5, 0.5}, {0, 0.5}, {0, 3}}};
   request.on_paths = 3;
   request.gap = 0.02;
+  request.keep_out = {{{-1, 0}, 0.5}};
   const auto placed = scatter_props(request);
   ASSERT_EQ(placed.size(), 20u);
   for (std::size_t i = 0; i < placed.size(); ++i) {
     for (std::size_t j = 0; j < i; ++j) EXPECT_GE((placed[i].position - placed[j].position).norm(), 0.3 + 0.02 - 1e-12);
+    EXPECT_GE((placed[i].position - Eigen::Vector2d(-1, 0)).norm(), 0.5 + 0.15 + 0.02 - 1e-12);
     if (i < 3) {
       EXPECT_EQ(placed[i].path, 0);
       const Eigen::Vector2d p = placed[i].position;
@@ -421,6 +423,7 @@ TEST(PhysicsTest, ScatterKeepsFootprintsApartAndOnPaths) {
   // placement gets nowhere near that: the draws run out, and the message says which prop stuck.
   request.on_paths = 0;
   request.gap = 0;
+  request.keep_out.clear();
   request.footprint_radii.assign(100, 0.15);
   try {
     scatter_props(request);
