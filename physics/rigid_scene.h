@@ -3,10 +3,11 @@
 // Plain data in, plain data out. A PhysicsScene describes the world of one shot (Z up, metres,
 // seconds, kilograms): an optional infinite ground plane z = 0, static bodies, dynamic props,
 // kinematic colliders that follow given tracks (an actor's bones) and timed impulses. PhysicsModel
-// validates it once and prepares every shape (hulls, margins, mass properties); it is constant and
-// may be shared by threads. simulate() builds a fresh Bullet world from the model on every call, so
-// the same model always gives byte-identical output (Bullet single-threaded is deterministic for a
-// given insertion order, and no state survives between calls).
+// validates it once and prepares every shape (hulls, mass properties, principal frames); it is
+// constant. simulate() builds a fresh Bullet world from the model on every call, so the same model
+// always gives byte-identical output (Bullet single-threaded is deterministic for a given
+// insertion order, and no state survives between calls), and threads may simulate one model at
+// once (Bullet's only globals that a step writes are diagnostic counters).
 //
 // Time. Output frame f is the state at t = f / fps; frame 0 is the initial state. Between frames
 // the world advances by n = ceil(min_substep_rate / fps) equal substeps of dt = 1 / (fps n), so

@@ -9,6 +9,7 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include "physics/bone_colliders.h"
 #include "physics/convex_hull.h"
@@ -303,6 +304,14 @@ TEST(PhysicsTest, SameSceneGivesByteIdenticalOutput) {
     EXPECT_EQ(a.reports[i].contact_events, b.reports[i].contact_events);
     EXPECT_EQ(a.reports[i].path_length, b.reports[i].path_length);
   }
+  // Two threads simulating the one model at once get the same bytes as a lone run.
+  PropMotion e, f;
+  std::thread first([&] { e = simulate(model); }), second([&] { f = simulate(model); });
+  first.join();
+  second.join();
+  EXPECT_EQ(std::memcmp(a.positions.data(), e.positions.data(), a.positions.size() * sizeof(double)), 0);
+  EXPECT_EQ(std::memcmp(a.positions.data(), f.positions.data(), a.positions.size() * sizeof(double)), 0);
+  EXPECT_EQ(std::memcmp(a.rotations.data(), f.rotations.data(), a.rotations.size() * sizeof(double)), 0);
   // Another seed scatters and kicks differently: the props end elsewhere.
   PhysicsScene other = kicked_props(12, 12, 8);
   other.colliders = scene.colliders;
