@@ -249,6 +249,9 @@ PhysicsModel::PhysicsModel(PhysicsScene scene) : scene_(std::move(scene)) {
 }
 
 Pose PropMotion::pose(int frame, int prop) const {
+  if (frame < 0 || frame >= frame_count || prop < 0 || prop >= prop_count)
+    throw std::out_of_range("prop motion: frame " + std::to_string(frame) + " of " + std::to_string(frame_count) + ", prop " + std::to_string(prop) +
+                            " of " + std::to_string(prop_count));
   const std::size_t at = static_cast<std::size_t>(frame) * prop_count + prop;
   Pose pose;
   pose.position = Eigen::Vector3d(positions[3 * at], positions[3 * at + 1], positions[3 * at + 2]);

@@ -191,7 +191,7 @@ struct PropMotion {
   std::vector<double> rotations;  // [frame][prop][x y z w], sign continuous along time
   std::vector<PropReport> reports;  // per prop
 
-  Pose pose(int frame, int prop) const;
+  Pose pose(int frame, int prop) const;  // throws std::out_of_range outside the arrays
 };
 
 PropMotion simulate(const PhysicsModel& model);

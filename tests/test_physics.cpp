@@ -202,6 +202,8 @@ TEST(PhysicsTest, KinematicFootPushesAPropAtItsSpeed) {
   for (int f = 1; f < motion.frame_count; ++f) EXPECT_LT(frame_speed(motion, f, 0), bound) << "frame " << f;
   EXPECT_GT(motion.reports[0].top_speed, 0.9 * speed);  // it was pushed at about the foot's speed
   EXPECT_GE(motion.reports[0].contact_events, 2);        // the ground, then the foot
+  EXPECT_THROW(motion.pose(motion.frame_count, 0), std::out_of_range);
+  EXPECT_THROW(motion.pose(0, 1), std::out_of_range);
 }
 
 // 30 props of mixed shapes and sizes scattered on a 6 x 6 m floor, kicked at random.
