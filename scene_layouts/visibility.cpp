@@ -19,6 +19,11 @@ constexpr double kEdgeSlackPixels = 1.0 / 1024;
 // Growth of triangles in the ray test, in barycentric units (see ray_parameter).
 constexpr double kBarycentricSlack = 1e-9;
 
+// The grid's slack around each triangle's screen box, in pixels: more than the float rounding of
+// the box's coordinates (at most 2^-24 of 2^24 px), so that no point on a triangle's projection
+// falls outside its box; a larger box only costs a ray test.
+constexpr double kBoxSlackPixels = 1.0 / 64;
+
 // Moller-Trumbore for the ray s P (s real) from the origin through P and the triangle (a, b, c):
 // solving a + beta (b - a) + gamma (c - a) = s P by Cramer's rule with e1 = b - a, e2 = c - a,
 // w = -a gives det = e1 . (P x e2), beta = w . (P x e2) / det, gamma = P . (w x e1) / det and
@@ -94,86 +99,30 @@ PointVisibility DepthBuffer::classify(const Eigen::Vector3d& point) const {
   const double u = k.fx * point.x() / point.z() + k.cx, v = k.fy * point.y() / point.z() + k.cy;
   if (!(u >= 0 && u < width_ && v >= 0 && v < height_)) return {Reason::outside_image, kNoTriangle};
 
-  // Candidates, in the order tested: the distinct nearest triangles at the 3x3 centres around
-  // (u, v) (the pixel holding it and its neighbours inside the image, skipping empty ones, whose
-  // triangle entry is stale), then, breadth first, the triangles across their edges whose
-  // projection meets the box B = [u - 1, u + 1] x [v - 1, v + 1], up to kMaxCandidates in all.
-  const int x = static_cast<int>(u), y = static_cast<int>(v);
-  std::array<std::uint32_t, kMaxCandidates> candidates;
-  int count = 0;
-  // Candidates seen so far, as a set: open addressing in twice as many slots as candidates, so a
-  // lookup is a probe or two (a linear search made the flood quadratic in the candidates).
-  constexpr std::uint32_t kSlots = 2 * kMaxCandidates;
-  static_assert((kSlots & (kSlots - 1)) == 0, "the slot count is a power of two");
-  std::array<std::uint32_t, kSlots> seen;
-  seen.fill(kNoTriangle);
-  // The slot holding `id`, or the empty slot where it would go.
-  auto slot_of = [&](std::uint32_t id) {
-    std::uint32_t slot = (id * 2654435761u) & (kSlots - 1);
-    while (seen[slot] != kNoTriangle && seen[slot] != id) slot = (slot + 1) & (kSlots - 1);
-    return slot;
-  };
-  auto add = [&](std::uint32_t id) {
-    if (count >= kMaxCandidates) return;
-    const std::uint32_t slot = slot_of(id);
-    if (seen[slot] == id) return;
-    seen[slot] = id;
-    candidates[count++] = id;
-  };
-  for (int j = std::max(y - 1, 0); j <= std::min(y + 1, height_ - 1); ++j) {
-    for (int i = std::max(x - 1, 0); i <= std::min(x + 1, width_ - 1); ++i) {
-      const std::size_t pixel = static_cast<std::size_t>(j) * width_ + i;
-      if (inverse_depth_[pixel] != 0) add(triangle_[pixel]);
-    }
-  }
-  // Whether triangle t's projection meets B (separating axes: B's two and the triangle's three
-  // edge normals); true when a corner lies before the near plane (its projection is not kept),
-  // which only lets more triangles in.
-  auto meets_box = [&](std::uint32_t t) {
-    std::array<const ScreenVertex*, 3> p;
-    for (int c = 0; c < 3; ++c) {
-      const std::uint32_t i = triangles_[3 * std::size_t{t} + c];
-      if (camera_[i].z() < kNearDepth) return true;
-      p[c] = &screen_[i];
-    }
-    if (std::max({p[0]->u, p[1]->u, p[2]->u}) < u - 1 || std::min({p[0]->u, p[1]->u, p[2]->u}) > u + 1 ||
-        std::max({p[0]->v, p[1]->v, p[2]->v}) < v - 1 || std::min({p[0]->v, p[1]->v, p[2]->v}) > v + 1)
-      return false;
-    // Edge a -> b with the third corner c on its positive side (sign of the area): B lies outside
-    // when the edge function (b - a) x (q - a), times the sign, is negative at all four corners q of
-    // B, that is at the corner maximising it: |du| + |dv| above its value at the centre (u, v).
-    const double area = (p[1]->u - p[0]->u) * (p[2]->v - p[0]->v) - (p[2]->u - p[0]->u) * (p[1]->v - p[0]->v);
-    const double sign = area < 0 ? -1 : 1;
-    for (int e = 0; e < 3; ++e) {
-      const ScreenVertex& a = *p[e];
-      const ScreenVertex& b = *p[(e + 1) % 3];
-      const double du = b.u - a.u, dv = b.v - a.v;
-      if (sign * (du * (v - a.v) - dv * (u - a.u)) + std::abs(du) + std::abs(dv) < 0) return false;
-    }
-    return true;
-  };
-
-  // Hidden when the segment from the camera (the origin) to the point crosses a candidate more than
-  // `reach` before the point: at s P with 0 < s and (1 - s) |P| > reach.
+  // Hidden when the segment from the camera (the origin) to the point crosses a triangle more than
+  // `reach` before the point: at s P with 0 < s and (1 - s) |P| > reach. Every such triangle
+  // projects over (u, v), so only the triangles whose screen box holds (u, v) are tested: those
+  // binned in the fine and the coarse tile holding it, and the large ones. The occluder named is
+  // the nearest (smallest s).
   const double distance = point.norm();
   const double reach = std::max(kRelativeDepthTolerance * distance, kAbsoluteDepthTolerance);
-  for (int c = 0; c < count; ++c) {
-    const std::size_t t = 3 * std::size_t{candidates[c]};
-    const double s =
-        ray_parameter(camera_[triangles_[t]], camera_[triangles_[t + 1]], camera_[triangles_[t + 2]], point);
-    if (s > 0 && (1 - s) * distance > reach) {
-      // Named by the nearest surface: the one drawn at the point's own pixel when it lies in front
-      // of the point (nearly always the ray's first hit), else the candidate just found.
-      const std::size_t pixel = static_cast<std::size_t>(y) * width_ + x;
-      const bool drawn_in_front = inverse_depth_[pixel] * point.z() > 1 + kRelativeDepthTolerance;
-      return {Reason::occluded, drawn_in_front ? triangle_[pixel] : candidates[c]};
+  double nearest = std::numeric_limits<double>::infinity();
+  std::uint32_t occluder = kNoTriangle;
+  auto test = [&](std::span<const BoxedTriangle> boxes) {
+    for (const BoxedTriangle& box : boxes) {
+      if (!(u >= box.u0 && u <= box.u1 && v >= box.v0 && v <= box.v1)) continue;
+      const std::size_t t = 3 * std::size_t{box.triangle};
+      const double s =
+          ray_parameter(camera_[triangles_[t]], camera_[triangles_[t + 1]], camera_[triangles_[t + 2]], point);
+      if (s > 0 && (1 - s) * distance > reach && s < nearest) {
+        nearest = s;
+        occluder = box.triangle;
+      }
     }
-    for (int e = 0; e < 3; ++e) {
-      const std::uint32_t other = neighbours_[t + e];
-      // Known triangles are not tested against the box again (each edge is seen from both sides).
-      if (other != kNoTriangle && count < kMaxCandidates && seen[slot_of(other)] != other && meets_box(other)) add(other);
-    }
-  }
+  };
+  for (const TileGrid& grid : grids_) test(grid.tile(u, v));
+  test(large_);
+  if (occluder != kNoTriangle) return {Reason::occluded, occluder};
   return {Reason::visible, kNoTriangle};
 }
 
@@ -215,10 +164,20 @@ void DepthBuffer::render(const CameraPose& pose, const PinholeIntrinsics& k, std
   }
   // Every input is valid from here on: keep the camera and the mesh for visible().
   intrinsics_ = k;
-  if (!std::ranges::equal(triangles, triangles_)) {
-    triangles_.assign(triangles.begin(), triangles.end());
-    find_neighbours(positions);
-  }
+  if (!std::ranges::equal(triangles, triangles_)) triangles_.assign(triangles.begin(), triangles.end());
+  boxes_.clear();
+  // The screen box of the part of triangle `id` before the near plane (corners p), grown by the
+  // slack and clamped to just around the image, kept when it meets the image.
+  auto keep_box = [&](std::span<const ScreenVertex> p, std::uint32_t id) {
+    double u0 = p[0].u, u1 = p[0].u, v0 = p[0].v, v1 = p[0].v;
+    for (const ScreenVertex& q : p.subspan(1)) {
+      u0 = std::min(u0, q.u), u1 = std::max(u1, q.u), v0 = std::min(v0, q.v), v1 = std::max(v1, q.v);
+    }
+    u0 -= kBoxSlackPixels, v0 -= kBoxSlackPixels, u1 += kBoxSlackPixels, v1 += kBoxSlackPixels;
+    if (!(u1 >= 0 && v1 >= 0 && u0 <= width_ && v0 <= height_)) return;  // also drops NaN
+    const auto clamp = [](double x, int size) { return static_cast<float>(std::clamp(x, -1.0, size + 1.0)); };
+    boxes_.push_back({clamp(u0, width_), clamp(v0, height_), clamp(u1, width_), clamp(v1, height_), id});
+  };
 
   for (std::size_t t = 0; t < triangles.size(); t += 3) {
     const std::array<std::uint32_t, 3> index{triangles[t], triangles[t + 1], triangles[t + 2]};
@@ -226,7 +185,9 @@ void DepthBuffer::render(const CameraPose& pose, const PinholeIntrinsics& k, std
     int in_front = 0;
     for (const std::uint32_t i : index) in_front += camera_[i].z() >= kNearDepth;
     if (in_front == 3) {
-      rasterise(screen_[index[0]], screen_[index[1]], screen_[index[2]], id);
+      const std::array<ScreenVertex, 3> corners{screen_[index[0]], screen_[index[1]], screen_[index[2]]};
+      rasterise(corners[0], corners[1], corners[2], id);
+      keep_box(corners, id);
       continue;
     }
     if (in_front == 0) continue;
@@ -247,47 +208,62 @@ void DepthBuffer::render(const CameraPose& pose, const PinholeIntrinsics& k, std
       }
     }
     for (int c = 2; c < corners; ++c) rasterise(polygon[0], polygon[c - 1], polygon[c], id);
+    keep_box(std::span(polygon).first(corners), id);
   }
+  bin_boxes();
 }
 
-void DepthBuffer::find_neighbours(std::span<const float> positions) {
-  // Corners are joined by position, not index: meshes split vertices along UV and normal seams.
-  // same[v] is the first vertex (in xyz order) at v's exact float position.
-  const std::size_t vertices = positions.size() / 3;
-  std::vector<std::uint32_t> order(vertices), same(vertices);
-  for (std::size_t v = 0; v < vertices; ++v) order[v] = static_cast<std::uint32_t>(v);
-  auto xyz = [&](std::uint32_t v) { return std::span(positions).subspan(3 * std::size_t{v}, 3); };
-  std::ranges::sort(order, [&](std::uint32_t a, std::uint32_t b) {
-    return std::ranges::lexicographical_compare(xyz(a), xyz(b));
-  });
-  for (std::size_t i = 0; i < vertices; ++i)
-    same[order[i]] = i > 0 && std::ranges::equal(xyz(order[i]), xyz(order[i - 1])) ? same[order[i - 1]] : order[i];
-  std::vector<std::uint32_t> corner(triangles_.size());
-  for (std::size_t i = 0; i < triangles_.size(); ++i) corner[i] = same[triangles_[i]];
+std::span<const DepthBuffer::BoxedTriangle> DepthBuffer::TileGrid::tile(double u, double v) const {
+  if (first.empty()) return {};
+  const int column = std::clamp(static_cast<int>(u / size), 0, columns - 1);
+  const int row = std::clamp(static_cast<int>(v / size), 0, rows - 1);
+  const std::size_t cell = static_cast<std::size_t>(row) * columns + column;
+  return std::span(entries).subspan(first[cell], first[cell + 1] - first[cell]);
+}
 
-  // The triangles around each (joined) vertex, as one array sliced by vertex (counting sort):
-  // triangle t is listed under each of its corners, between first[v] and first[v + 1].
-  const std::size_t count = corner.size() / 3;
-  std::vector<std::size_t> first(vertices + 1, 0);
-  for (const std::uint32_t v : corner) ++first[v + 1];
-  for (std::size_t v = 0; v < vertices; ++v) first[v + 1] += first[v];
-  std::vector<std::uint32_t> around(corner.size());
-  std::vector<std::size_t> next(first.begin(), first.end() - 1);
-  for (std::size_t i = 0; i < corner.size(); ++i) around[next[corner[i]]++] = static_cast<std::uint32_t>(i / 3);
-  // Across edge e of t (corners e, e + 1): a triangle other than t around corner e holding corner e + 1.
-  neighbours_.assign(corner.size(), kNoTriangle);
-  for (std::size_t t = 0; t < count; ++t) {
-    for (int e = 0; e < 3; ++e) {
-      const std::uint32_t a = corner[3 * t + e], b = corner[3 * t + (e + 1) % 3];
-      for (std::size_t i = first[a]; i < first[a + 1]; ++i) {
-        const std::uint32_t other = around[i];
-        const auto corners = std::span(corner).subspan(3 * std::size_t{other}, 3);
-        if (other != t && std::ranges::find(corners, b) != corners.end()) {
-          neighbours_[3 * t + e] = other;
-          break;
-        }
-      }
+void DepthBuffer::bin_boxes() {
+  // Each box goes to the first grid where it spans at most kMaxTilesPerBox tiles, else to the large
+  // list: at most kMaxTilesPerBox entries a triangle, whatever its size.
+  constexpr std::array<int, 2> kTileSizes{kFineTilePixels, kCoarseTilePixels};
+  for (std::size_t g = 0; g < grids_.size(); ++g) {
+    TileGrid& grid = grids_[g];
+    grid.size = kTileSizes[g];
+    grid.columns = (width_ + grid.size - 1) / grid.size;
+    grid.rows = (height_ + grid.size - 1) / grid.size;
+    grid.first.assign(static_cast<std::size_t>(grid.columns) * grid.rows + 1, 0);
+  }
+  large_.clear();
+  box_grid_.resize(boxes_.size());
+  // The tile span of a box in a grid, clamped to it.
+  auto span_of = [](const TileGrid& grid, const BoxedTriangle& box) {
+    const auto index = [&](float x, int count) { return std::clamp(static_cast<int>(std::floor(x / grid.size)), 0, count - 1); };
+    return std::array<int, 4>{index(box.u0, grid.columns), index(box.v0, grid.rows), index(box.u1, grid.columns),
+                              index(box.v1, grid.rows)};
+  };
+  // Counting sort: count per tile, turn counts into starts, then place.
+  for (std::size_t b = 0; b < boxes_.size(); ++b) {
+    box_grid_[b] = static_cast<std::uint8_t>(grids_.size());
+    for (std::size_t g = 0; g < grids_.size(); ++g) {
+      const auto [c0, r0, c1, r1] = span_of(grids_[g], boxes_[b]);
+      if (static_cast<long long>(c1 - c0 + 1) * (r1 - r0 + 1) > kMaxTilesPerBox) continue;
+      box_grid_[b] = static_cast<std::uint8_t>(g);
+      for (int r = r0; r <= r1; ++r)
+        for (int c = c0; c <= c1; ++c) ++grids_[g].first[static_cast<std::size_t>(r) * grids_[g].columns + c + 1];
+      break;
     }
+    if (box_grid_[b] == grids_.size()) large_.push_back(boxes_[b]);
+  }
+  for (TileGrid& grid : grids_) {
+    for (std::size_t cell = 1; cell < grid.first.size(); ++cell) grid.first[cell] += grid.first[cell - 1];
+    grid.entries.resize(grid.first.back());
+    grid.next.assign(grid.first.begin(), grid.first.end() - 1);
+  }
+  for (std::size_t b = 0; b < boxes_.size(); ++b) {
+    if (box_grid_[b] == grids_.size()) continue;
+    TileGrid& grid = grids_[box_grid_[b]];
+    const auto [c0, r0, c1, r1] = span_of(grid, boxes_[b]);
+    for (int r = r0; r <= r1; ++r)
+      for (int c = c0; c <= c1; ++c) grid.entries[grid.next[static_cast<std::size_t>(r) * grid.columns + c]++] = boxes_[b];
   }
 }
 

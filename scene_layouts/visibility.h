@@ -49,55 +49,43 @@
 // ----------
 // A point P (camera coordinates, z > 0, projecting to (u, v) inside the image) is hidden exactly
 // when the segment from the camera centre O = 0 to P crosses a triangle before P. Every triangle
-// crossing the ray s P, 0 < s < 1, projects over (u, v) itself, so the triangles drawn around
-// (u, v) name the culprits. The test:
-//   seeds      = the distinct IDs at the 3x3 pixel centres around (u, v) (the pixel holding it and
-//                its 8 neighbours, those inside the image, empty ones skipped);
-//   candidates = the seeds, then breadth first the triangles sharing an edge with a candidate whose
-//                projection meets the box B = [u - 1, u + 1] x [v - 1, v + 1], kMaxCandidates = 64
-//                at most (edges join corners at equal world positions, so seams split for UVs or
-//                normals do not cut the mesh);
-//   hidden  <=>  some candidate meets the ray at s P with s > 0 and (1 - s) |P| > reach,
+// crossing the ray s P at a depth of at least the near plane projects over (u, v) itself, so its
+// screen box (the bounding box of the projection of its part before the near plane, grown by
+// 1/64 px) holds (u, v). The test casts the ray against exactly those triangles:
+//   hidden  <=>  some triangle whose box holds (u, v) meets the ray at s P with s > 0 and
+//                (1 - s) |P| > reach,
 //   reach = max(kRelativeDepthTolerance |P|, kAbsoluteDepthTolerance) = max(1e-4 |P|, 1 mm),
 // with s from Moller-Trumbore in double on the kept camera-space vertices, each triangle grown by
 // 1e-9 in barycentric units so that a ray through a shared edge or vertex cannot slip between the
-// triangles holding it by rounding (see ray_parameter in visibility.cpp). No depth sampled at a
-// centre is compared with the point's: a front point is never hidden by its own surface however
-// slanted, and a point beside a silhouette is judged by whether its own ray meets the occluder,
-// not by which of the nearby centres happen to be empty.
-// Why the seeds are not enough: the nearest triangle crossing the ray covers (u, v) but often no
-// centre. On a silhouette it is seen edge-on, a sliver narrower than a pixel; near a vertex the ray
-// may pass through the thin wedge of a triangle whose neighbours hold all the centres. Such a
-// triangle is reached from the seeds across edges through triangles that all meet B (the surface
-// around (u, v) is connected on screen). Measured on the RiggedFigure orbit (960x540, 80 degrees,
-// 4-5 m, 29,000 in-view points over every third frame) against brute-force ray casting over all
-// triangles: the seeds alone miss 0.6% of the points (all hidden ones called visible), adding the
-// edge neighbours of the seeds 0.33%, the flood without joining seams 0.30%, the rule above
-// 1 point in 29,000.
+// triangles holding it by rounding (see ray_parameter in visibility.cpp). The occluder named is the
+// nearest such triangle (smallest s). This is a brute-force ray cast restricted to the triangles
+// that can matter: no depth sampled at a pixel centre is compared with the point's, so a front
+// point is never hidden by its own surface however slanted, a point beside a silhouette is judged
+// by its own ray, and sub-pixel triangles (slivers seen edge on, meshes finer than the pixels,
+// small separate objects) hide what they cover.
+// Finding the boxes: render() bins every box into square tiles of the image. A box goes to the
+// fine grid (kFineTilePixels = 2 px tiles) when it spans at most kMaxTilesPerBox = 16 of them,
+// else to the coarse grid (kCoarseTilePixels = 32 px) on the same condition, else to a list of
+// large triangles; a point reads the fine and coarse tiles holding it and the large list. Each
+// triangle costs at most 16 entries whatever its size, and a point tests the few boxes around it
+// (the tiles are as small as the triangles of dense characters, whose many layers of sub-pixel
+// triangles made an edge-connected search around the point's pixel cost thousands of tests).
 // Why the reach: the point and the mesh are skinned in float32, so P lies off its own triangle's
 // plane by ~1e-7 of its coordinates (~1 um), which the ray turns into up to that / cos(incidence)
 // along it; 1 mm covers incidence to within 0.06 degree of grazing at metre scales, and 1e-4 |P|
 // keeps the same margin for distant scenes whose coordinates are large. The price: an occluder less
 // than the reach in front of the point does not hide it (1 mm, against a pixel footprint of about
 // 8 mm at 5 m); surfaces that close are in contact, not occluding.
-// Known limits (all make hidden points visible, never the reverse):
-//   - an occluding triangle covering none of the 9 centres and joined to none that does through
-//     triangles meeting B, e.g. a separate sub-pixel object, or a sliver whose seam vertices were
-//     skinned to different positions;
-//   - one masked at every centre it covers by a nearer triangle that does not itself cross the ray
-//     and is not joined to it (three layers within a pixel);
-//   - more than kMaxCandidates triangles meeting B (meshes much finer than the pixels): the flood
-//     stops, testing the nearest ones first.
+// Known limit: a surface crossing the ray less than kNearDepth from the camera centre (closer than
+// the near plane) does not hide the point, as it is not drawn either.
 // Points outside the image, behind the camera (z <= 0) or not finite are not visible.
 //
-// Performance: one 960x540 frame of a 20k-triangle closed mesh covering 10% of the image takes
-// about 1.8 ms of CPU time (40% of the image: 3.3 ms), on one core of a shared AMD EPYC, built
-// Release with -march=native, 5-9% more than without the ID buffer; most of it is per-triangle and
-// per-row setup, as the triangles of such meshes span a few pixels. Edges are joined only when the
-// triangle list changes (a sort of the vertices, once per mesh). visible() costs about 0.5 us a
-// point. The buffer reuses its memory from frame to frame.
+// Cost: render() rasterises and bins every triangle once per frame (binning is a counting sort
+// over the tiles, two passes); a point costs the boxes of its two tiles and the large list. The
+// buffer reuses its memory from frame to frame; classify() is const and may run on many threads.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -121,7 +109,6 @@ class DepthBuffer {
   static constexpr double kNearDepth = 1e-3;               // metres; the clipping plane z = near
   static constexpr double kRelativeDepthTolerance = 1e-4;  // see "Visibility" above
   static constexpr double kAbsoluteDepthTolerance = 1e-3;  // metres; likewise
-  static constexpr int kMaxCandidates = 64;                // triangles tested per point; likewise
 
   // Throws std::invalid_argument when width or height < 1, or the image is too large to index.
   DepthBuffer(int width, int height);
@@ -159,21 +146,35 @@ class DepthBuffer {
 
   // Whether a surface point, in camera coordinates (pose.to_camera(world) for the pose of the last
   // render()), is visible: in front of the camera (z > 0), projecting into [0, width) x [0, height)
-  // with the last render's intrinsics, and no candidate triangle crossing its ray before it (see
+  // with the last render's intrinsics, and no triangle crossing its ray before it (see
   // "Visibility" above). False before the first render() and after one that threw.
   bool visible(const Eigen::Vector3d& point) const;
   // The same, with the reason: behind_camera for z <= 0, outside_image for a projection outside
-  // the image, a non-finite point or before the first render, occluded naming the triangle drawn
-  // nearest at the point's pixel when it lies in front of the point (the ray's first hit but for
-  // sub-pixel detail), else the candidate found crossing the ray.
+  // the image, a non-finite point or before the first render, occluded naming the nearest triangle
+  // crossing its ray.
   PointVisibility classify(const Eigen::Vector3d& point) const;
 
  private:
   struct ScreenVertex {
     double u, v, inverse_depth;
   };
-  // Fills neighbours_ from triangles_ and the vertices' world positions (validated by render).
-  void find_neighbours(std::span<const float> positions);
+  // A triangle's screen box (see "Visibility" above), in pixels.
+  struct BoxedTriangle {
+    float u0, v0, u1, v1;
+    std::uint32_t triangle;
+  };
+  // Screen boxes binned by the square tiles they meet, `size` pixels a side: tile (column, row)
+  // holds entries[first[cell] .. first[cell + 1]), cell = row * columns + column.
+  struct TileGrid {
+    int size = 0, columns = 0, rows = 0;
+    std::vector<std::size_t> first, next;  // next: the fill position per cell while binning
+    std::vector<BoxedTriangle> entries;
+    // The boxes of the tile holding (u, v) (clamped to the grid); empty before the first binning.
+    std::span<const BoxedTriangle> tile(double u, double v) const;
+  };
+  static constexpr int kFineTilePixels = 2, kCoarseTilePixels = 32, kMaxTilesPerBox = 16;
+  // Bins boxes_ into grids_ and large_.
+  void bin_boxes();
   // Draws one (possibly clipped) piece of triangle `triangle` (its index in render's triangles).
   void rasterise(const ScreenVertex& p0, const ScreenVertex& p1, const ScreenVertex& p2, std::uint32_t triangle);
 
@@ -184,11 +185,12 @@ class DepthBuffer {
   // not allocate in steady state.
   std::optional<PinholeIntrinsics> intrinsics_;  // empty before a successful render()
   std::vector<std::uint32_t> triangles_;         // a copy of render's triangles
-  // Per triangle t and edge e (corners e, e + 1), 3 t + e: a triangle sharing that edge, or
-  // kNoTriangle. Recomputed only when render's triangles change, joining corners at equal
-  // positions in that render.
   static constexpr std::uint32_t kNoTriangle = 0xffffffff;
-  std::vector<std::uint32_t> neighbours_;
+  // The last render's screen boxes: all of them, then binned (fine grid, coarse grid, and the
+  // large ones that span more than kMaxTilesPerBox coarse tiles), with the grid each went to.
+  std::vector<BoxedTriangle> boxes_, large_;
+  std::array<TileGrid, 2> grids_;
+  std::vector<std::uint8_t> box_grid_;
   std::vector<Eigen::Vector3d> camera_;          // vertices in camera coordinates
   std::vector<ScreenVertex> screen_;             // projections, meaningful where camera z >= near
 };
