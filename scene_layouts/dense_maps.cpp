@@ -15,13 +15,18 @@ void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps, bool
   const std::span<const Eigen::Vector3d> vertices = buffer.camera_vertices();
 
   // Area-weighted vertex normals in camera space: the sum of the cross products (twice the area
-  // times the unit normal) of the triangles using the vertex.
+  // times the unit normal) of the triangles using the vertex, made unit length, as a renderer
+  // gets them from the GLB's NORMAL attribute and interpolates them (unnormalised sums would
+  // weight the corners of a pixel's triangle by the area around each).
   std::vector<Eigen::Vector3d>& vertex_normals = maps.vertex_normals;
   vertex_normals.assign(normals ? vertices.size() : 0, Eigen::Vector3d::Zero());
   for (std::size_t t = 0; normals && t + 2 < triangles.size(); t += 3) {
     const Eigen::Vector3d& a = vertices[triangles[t]];
     const Eigen::Vector3d n = (vertices[triangles[t + 1]] - a).cross(vertices[triangles[t + 2]] - a);
     for (int c = 0; c < 3; ++c) vertex_normals[triangles[t + c]] += n;
+  }
+  for (Eigen::Vector3d& n : vertex_normals) {
+    if (n.squaredNorm() > 0) n.normalize();
   }
 
   maps.width = buffer.width();

@@ -5,7 +5,8 @@
 //             pass); +infinity where no surface covers the centre;
 //   normal    the surface's unit normal in the world (Z up), turned to face the camera: the
 //             render's area-weighted vertex normals (camera space, summed over the triangles of
-//             the render that use the vertex) interpolated with the barycentric coordinates of
+//             the render that use the vertex, made unit length as a renderer's NORMAL attribute
+//             is) interpolated with the barycentric coordinates of
 //             the point where the centre's ray meets the triangle, normalised, then R^T n; (0, 0, 0)
 //             where no surface;
 //   instance  the id of the surface's owner: 0 nothing, then the actors 1 ... A in the shot's
