@@ -339,6 +339,9 @@ class SceneGlbBuilder {
                                                " fps, the scene at " + std::to_string(fps_));
       require(camera.path->frame_count() > 0, label + ": the path has no frames");
       check_frames(camera.path->frame_count(), label);
+      require(camera.rides_on < 0 || (camera.rides_on < static_cast<int>(actors_.size()) && camera.hidden_joint >= 0 &&
+                                      camera.hidden_joint < static_cast<int>(actors_[camera.rides_on].character->skeleton.joint_count())),
+              label + ": rides on no actor of the scene, or hides no joint of its skeleton");
     }
     if (frames_ < 0) frames_ = 0;
   }
@@ -547,11 +550,16 @@ class SceneGlbBuilder {
         first_translation = u;
       }
     }
+    json extras = {{"odyssey_camera", c}};
+    if (camera.rides_on >= 0) {
+      extras["odyssey_rides_on"] = camera.rides_on;
+      extras["odyssey_hides_subtree_of"] = actors_[camera.rides_on].character->skeleton.names()[camera.hidden_joint];
+    }
     const int node = add_node({{"name", camera.name},
                                {"camera", camera_index},
                                {"rotation", xyzw(first_rotation)},
                                {"translation", xyz(first_translation)},
-                               {"extras", {{"odyssey_camera", c}}}},
+                               {"extras", extras}},
                               true);
     channel(doc_, animation_, time_accessor_, translations, 3, node, "translation");
     channel(doc_, animation_, time_accessor_, rotations, 4, node, "rotation");

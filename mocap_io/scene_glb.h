@@ -35,7 +35,8 @@
 //   extras {"odyssey_prop": k, "odyssey_first_vertex": n} (vertices numbered across the props'
 //   meshes, as trajectory files number prop points).
 // * Per camera a root node and a perspective camera, both named as the camera, extras
-//   {"odyssey_camera": c}.
+//   {"odyssey_camera": c} (and, for an ego camera, "odyssey_rides_on" and "odyssey_hides_subtree_of":
+//   SceneGlbCamera).
 // * One animation, "scene", LINEAR, with one time accessor (frame f at f / fps seconds, float32):
 //   a rotation channel on every joint node, a translation channel on every root joint and every
 //   joint of clip.translated_joints, and a translation and a rotation channel on every camera node.
@@ -99,6 +100,13 @@ struct SceneGlbActor {
 struct SceneGlbCamera {
   std::string name;                  // the camera node's and the camera's name
   const CameraPath* path = nullptr;  // one pose per output frame at fps
+  // An ego camera: the actor whose head carries it, and the joint of that actor's skeleton whose
+  // subtree it does not see (the toolkit drops that actor's triangles with a corner whose dominant
+  // joint lies there, frame_loop.h). Written as the node's extras "odyssey_rides_on" (the actor's
+  // index) and "odyssey_hides_subtree_of" (the joint's name), so a renderer can drop the same
+  // triangles. -1: none.
+  int rides_on = -1;
+  int hidden_joint = -1;
 };
 
 // `props` may be nullptr (no props); its meshes are in world coordinates and not skinned. Every

@@ -56,7 +56,11 @@ void SceneGlbSink::finish(const SceneResult& result) {
     actors.push_back({actor.name, &actor.motion->character, &actor.clip, actor.vertex_animation ? &*actor.vertex_animation : nullptr});
   }
   std::vector<io::SceneGlbCamera> cameras;
-  for (const ShotCamera& camera : result.cameras) cameras.push_back({camera.name, &camera.path});
+  for (const ShotCamera& camera : result.cameras) {
+    // An ego camera does not see its wearer's head (frame_loop.h); the GLB says so for renderers.
+    const int head = camera.rides_on >= 0 ? result.actors.at(camera.rides_on).motion->head_joint : -1;
+    cameras.push_back({camera.name, &camera.path, head >= 0 ? camera.rides_on : -1, head});
+  }
   io::write_scene_glb(staged_, actors, result.props.names.empty() ? nullptr : &result.props.character, cameras, result.fps);
 }
 
