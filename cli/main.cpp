@@ -30,6 +30,8 @@ constexpr Command kCommands[] = {
      odyssey::cli::run_point_cache},
     {"scene", "run a scene file: several actors, props and cameras in one shot; tracks, caches, cameras, report",
      odyssey::cli::run_scene},
+    {"render", "render a sequence folder's RGB frames (rgbs/) with Blender's Cycles from the shot's scene.glb",
+     odyssey::cli::run_render},
     {"batch", "retarget motion libraries onto character libraries (or a manifest's jobs): parallel, resumable, sharded",
      odyssey::cli::run_batch},
     {"batch-report", "merge the journals of a batch's shards into one report", odyssey::cli::run_batch_report},
