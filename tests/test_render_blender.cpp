@@ -1,7 +1,8 @@
 // Blender against the toolkit's dense maps, and `odyssey render` with the real Blender.
 //
 // Agreement: a shot of two walkers, a ground, a box and a wall seen by a static, an orbit and an
-// ego camera at 240x135 with exact maps and scene.glb; Blender imports the GLB and renders three
+// ego camera at 240x135 with exact maps and scene.glb, and the same shot seen by a file camera with
+// an off-centre principal point and non-square pixels; Blender imports the GLB and renders three
 // frames a camera with Cycles (one sample through each pixel's centre, camera placed by
 // render/blender/render_sequence.py as `odyssey render` places it; tests/python/blender_passes.py),
 // and tests/python/compare_render_passes.py compares its Z, Normal and IndexOB passes with the
@@ -37,9 +38,14 @@ const std::string kSource = ODYSSEY_SOURCE_DIR;
 
 bool have_blender() { return std::system("blender --version > /dev/null 2>&1") == 0; }
 
-// Two walkers, a ground, a box and a wall (tests/test_sequences_cli.cpp's small scene) seen by a
-// static camera, an orbit and the follower's head.
-std::string agreement_scene() {
+const std::string kCameras =
+    R"({"type": "static", "name": "side", "position": [1.0, -5.0, 1.6], "target": [-0.5, 0.3, 0.9], "width": 240, "height": 135},
+       {"type": "orbit", "name": "orbit", "period": 4, "width": 240, "height": 135},
+       {"type": "ego", "name": "head", "actor": "follower", "width": 240, "height": 135})";
+
+// Two walkers, a ground, a box and a wall (tests/test_sequences_cli.cpp's small scene) seen by
+// `cameras`: a static camera, an orbit and the follower's head by default.
+std::string agreement_scene(const std::string& cameras = kCameras) {
   return R"({"version": 1, "name": "pair", "seconds": 1, "seed": 3,
   "actors": [
     {"name": "leader", "motion": ")" + kData + R"(/mocap/cmu_walk_cgspeed.bvh", "bvh_units": "cmu",
@@ -49,19 +55,17 @@ std::string agreement_scene() {
   "props": [{"type": "ground", "name": "floor", "size": [12, 12]},
             {"type": "box", "name": "crate", "size": [0.5, 0.5, 0.5], "position": [1.0, 1.0, 0], "category": "prop"},
             {"type": "box", "name": "wall", "size": [0.2, 6, 2.5], "position": [-3, 0, 0], "category": "structure"}],
-  "cameras": [{"type": "static", "name": "side", "position": [1.0, -5.0, 1.6], "target": [-0.5, 0.3, 0.9], "width": 240, "height": 135},
-              {"type": "orbit", "name": "orbit", "period": 4, "width": 240, "height": 135},
-              {"type": "ego", "name": "head", "actor": "follower", "width": 240, "height": 135}],
+  "cameras": [)" + cameras + R"(],
   "outputs": {"points_per_actor": 100, "prop_points": 50, "depth": true, "normals": true, "masks": true,
               "exact_maps": true, "glb": true}})";
 }
 
-fs::path run_scene(const fs::path& dir) {
-  std::ofstream(dir / "pair.json") << agreement_scene();
-  const test_support::CliResult run =
-      test_support::run_cli("scene " + (dir / "pair.json").string() + " --out " + (dir / "out").string() + " --layout pointodyssey --quiet");
+fs::path run_scene(const fs::path& dir, const std::string& name = "out", const std::string& cameras = kCameras) {
+  std::ofstream(dir / (name + ".json")) << agreement_scene(cameras);
+  const test_support::CliResult run = test_support::run_cli("scene " + (dir / (name + ".json")).string() + " --out " +
+                                                            (dir / name).string() + " --layout pointodyssey --quiet");
   EXPECT_EQ(run.exit_code, 0) << run.output;
-  return dir / "out";
+  return dir / name;
 }
 
 // Runs a shell command, returning its exit code and output.
@@ -82,13 +86,27 @@ TEST(RenderBlenderTest, CyclesPassesAgreeWithTheExactMapsForEveryCameraKind) {
   const fs::path dir = test_support::scratch_dir("render_blender");
   const fs::path out = run_scene(dir);
   ASSERT_TRUE(fs::exists(out / "scene.glb"));
+  // A file camera with the principal point off the centre and pixels a quarter taller than wide,
+  // the side camera's path otherwise: Blender's lens shift and pixel aspect must map cx, cy and fy.
+  nlohmann::json path = nlohmann::json::parse(std::ifstream(out / "camera_side.json"));
+  for (nlohmann::json& frame : path["frames"]) {
+    frame["intrinsics"][0][2] = frame["intrinsics"][0][2].get<double>() + 17.3;
+    frame["intrinsics"][1][2] = frame["intrinsics"][1][2].get<double>() - 9.6;
+    frame["intrinsics"][1][1] = frame["intrinsics"][1][1].get<double>() * 1.25;
+  }
+  std::ofstream(dir / "skewed_path.json") << path.dump();
+  const fs::path skewed = run_scene(dir, "skewed", R"({"type": "file", "name": "skewed", "path": ")" +
+                                                       (dir / "skewed_path.json").string() + R"("})");
+  ASSERT_TRUE(fs::exists(skewed / "scene.glb"));
+
   const std::string frames = "0,15,30";
-  for (const std::string camera : {"side", "orbit", "head"}) {
-    const fs::path seq = out / ("pair_" + camera), passes = dir / ("passes_" + camera);
+  for (const std::string camera : {"side", "orbit", "head", "skewed"}) {
+    const fs::path shot = camera == "skewed" ? skewed : out;
+    const fs::path seq = shot / ("pair_" + camera), passes = dir / ("passes_" + camera);
     fs::create_directories(passes);
     const test_support::CliResult blender =
         shell("blender -b --factory-startup --python " + kSource + "/tests/python/blender_passes.py -- --render-dir " + kSource +
-              "/render/blender --sequence " + seq.string() + " --glb " + (out / "scene.glb").string() + " --out " +
+              "/render/blender --sequence " + seq.string() + " --glb " + (shot / "scene.glb").string() + " --out " +
               passes.string() + " --frames " + frames);
     ASSERT_EQ(blender.exit_code, 0) << blender.output;
     const test_support::CliResult compared = shell(test_support::numpy_python() + " " + kSource +
@@ -98,7 +116,7 @@ TEST(RenderBlenderTest, CyclesPassesAgreeWithTheExactMapsForEveryCameraKind) {
     // The figures are the last line (numpy may warn on the lines before).
     const std::string last = compared.output.substr(compared.output.rfind('\n', compared.output.size() - 2) + 1);
     const nlohmann::json shares = nlohmann::json::parse(last);
-    std::printf("Blender vs maps, camera %-5s: %d pixels seen by both over %d frames; depth within 1e-3 %.4f%%, "
+    std::printf("Blender vs maps, camera %-6s: %d pixels seen by both over %d frames; depth within 1e-3 %.4f%%, "
                 "normal within 1 deg %.4f%%, same instance %.4f%%; seen by one only %.4f%% of all pixels\n",
                 camera.c_str(), shares["pixels_both"].get<int>(), shares["frames"].get<int>(),
                 100 * shares["depth_share"].get<double>(), 100 * shares["normal_share"].get<double>(),
