@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -108,20 +109,43 @@ PointVisibility DepthBuffer::classify(const Eigen::Vector3d& point) const {
   const double reach = std::max(kRelativeDepthTolerance * distance, kAbsoluteDepthTolerance);
   double nearest = std::numeric_limits<double>::infinity();
   std::uint32_t occluder = kNoTriangle;
-  auto test = [&](std::span<const BoxedTriangle> boxes) {
-    for (const BoxedTriangle& box : boxes) {
-      if (!(u >= box.u0 && u <= box.u1 && v >= box.v0 && v <= box.v1)) continue;
-      const std::size_t t = 3 * std::size_t{box.triangle};
-      const double s =
-          ray_parameter(camera_[triangles_[t]], camera_[triangles_[t + 1]], camera_[triangles_[t + 2]], point);
-      if (s > 0 && (1 - s) * distance > reach && s < nearest) {
-        nearest = s;
-        occluder = box.triangle;
+  const float uf = static_cast<float>(u), vf = static_cast<float>(v);  // within the boxes' slack of u, v
+  // A triangle crossing the ray at s P with (1 - s) |P| > reach does so at a depth below
+  // P.z (1 - reach / |P|), so one whose nearest point lies at or beyond that is not tested.
+  const float beyond = std::nextafter(static_cast<float>(point.z() * (1 - reach / distance)),
+                                      std::numeric_limits<float>::infinity());
+  // Boxes first .. last - 1 of `boxes`, kScanBlock at a time: the four comparisons of a block are
+  // branch-free (vectorised), and a block with no box holding the point costs no more.
+  auto scan = [&](const BoxColumns& boxes, std::size_t first, std::size_t last) {
+    for (std::size_t block = first; block < last; block += kScanBlock) {
+      std::array<std::uint8_t, kScanBlock> holds;
+      for (std::size_t k = 0; k < kScanBlock; ++k) {
+        const std::size_t i = block + k;
+        holds[k] = (uf >= boxes.u0[i]) & (uf <= boxes.u1[i]) & (vf >= boxes.v0[i]) & (vf <= boxes.v1[i]) &
+                   (boxes.nearest[i] < beyond);
+      }
+      std::uint64_t any[2];
+      std::memcpy(any, holds.data(), sizeof any);
+      if ((any[0] | any[1]) == 0) continue;
+      for (std::size_t k = 0; k < std::min(kScanBlock, last - block); ++k) {
+        if (!holds[k]) continue;
+        const std::uint32_t id = boxes.triangle[block + k];
+        const std::size_t t = 3 * std::size_t{id};
+        const double s =
+            ray_parameter(camera_[triangles_[t]], camera_[triangles_[t + 1]], camera_[triangles_[t + 2]], point);
+        if (s > 0 && (1 - s) * distance > reach && s < nearest) {
+          nearest = s;
+          occluder = id;
+        }
       }
     }
   };
-  for (const TileGrid& grid : grids_) test(grid.tile(u, v));
-  test(large_);
+  for (const TileGrid& grid : grids_) {
+    if (grid.first.empty()) continue;
+    const std::size_t cell = grid.cell(u, v);
+    scan(grid.boxes, grid.first[cell], grid.first[cell + 1]);
+  }
+  scan(large_, 0, large_count_);
   if (occluder != kNoTriangle) return {Reason::occluded, occluder};
   return {Reason::visible, kNoTriangle};
 }
@@ -168,15 +192,18 @@ void DepthBuffer::render(const CameraPose& pose, const PinholeIntrinsics& k, std
   boxes_.clear();
   // The screen box of the part of triangle `id` before the near plane (corners p), grown by the
   // slack and clamped to just around the image, kept when it meets the image.
-  auto keep_box = [&](std::span<const ScreenVertex> p, std::uint32_t id) {
-    double u0 = p[0].u, u1 = p[0].u, v0 = p[0].v, v1 = p[0].v;
+  auto keep_box = [&](std::span<const ScreenVertex> p, std::uint32_t id, bool clipped) {
+    double u0 = p[0].u, u1 = p[0].u, v0 = p[0].v, v1 = p[0].v, inverse_depth = p[0].inverse_depth;
     for (const ScreenVertex& q : p.subspan(1)) {
       u0 = std::min(u0, q.u), u1 = std::max(u1, q.u), v0 = std::min(v0, q.v), v1 = std::max(v1, q.v);
+      inverse_depth = std::max(inverse_depth, q.inverse_depth);
     }
+    // Rounded towards 0, so that it never exceeds the true nearest depth.
+    const float nearest = clipped ? 0.0f : std::nextafter(static_cast<float>(1 / inverse_depth), 0.0f);
     u0 -= kBoxSlackPixels, v0 -= kBoxSlackPixels, u1 += kBoxSlackPixels, v1 += kBoxSlackPixels;
     if (!(u1 >= 0 && v1 >= 0 && u0 <= width_ && v0 <= height_)) return;  // also drops NaN
     const auto clamp = [](double x, int size) { return static_cast<float>(std::clamp(x, -1.0, size + 1.0)); };
-    boxes_.push_back({clamp(u0, width_), clamp(v0, height_), clamp(u1, width_), clamp(v1, height_), id});
+    boxes_.push_back({clamp(u0, width_), clamp(v0, height_), clamp(u1, width_), clamp(v1, height_), nearest, id});
   };
 
   for (std::size_t t = 0; t < triangles.size(); t += 3) {
@@ -187,7 +214,7 @@ void DepthBuffer::render(const CameraPose& pose, const PinholeIntrinsics& k, std
     if (in_front == 3) {
       const std::array<ScreenVertex, 3> corners{screen_[index[0]], screen_[index[1]], screen_[index[2]]};
       rasterise(corners[0], corners[1], corners[2], id);
-      keep_box(corners, id);
+      keep_box(corners, id, false);
       continue;
     }
     if (in_front == 0) continue;
@@ -208,17 +235,28 @@ void DepthBuffer::render(const CameraPose& pose, const PinholeIntrinsics& k, std
       }
     }
     for (int c = 2; c < corners; ++c) rasterise(polygon[0], polygon[c - 1], polygon[c], id);
-    keep_box(std::span(polygon).first(corners), id);
+    keep_box(std::span(polygon).first(corners), id, true);
   }
   bin_boxes();
 }
 
-std::span<const DepthBuffer::BoxedTriangle> DepthBuffer::TileGrid::tile(double u, double v) const {
-  if (first.empty()) return {};
+std::size_t DepthBuffer::TileGrid::cell(double u, double v) const {
   const int column = std::clamp(static_cast<int>(u / size), 0, columns - 1);
   const int row = std::clamp(static_cast<int>(v / size), 0, rows - 1);
-  const std::size_t cell = static_cast<std::size_t>(row) * columns + column;
-  return std::span(entries).subspan(first[cell], first[cell + 1] - first[cell]);
+  return static_cast<std::size_t>(row) * columns + column;
+}
+
+void DepthBuffer::BoxColumns::resize(std::size_t count) {
+  // Padding: boxes that hold no point (u0 > u1).
+  for (auto* column : {&u0, &v0}) column->assign(count + kScanBlock, 1.0f);
+  for (auto* column : {&u1, &v1}) column->assign(count + kScanBlock, 0.0f);
+  nearest.assign(count + kScanBlock, std::numeric_limits<float>::infinity());
+  triangle.assign(count + kScanBlock, kNoTriangle);
+}
+
+void DepthBuffer::BoxColumns::set(std::size_t i, const BoxedTriangle& box) {
+  u0[i] = box.u0, v0[i] = box.v0, u1[i] = box.u1, v1[i] = box.v1, nearest[i] = box.nearest;
+  triangle[i] = box.triangle;
 }
 
 void DepthBuffer::bin_boxes() {
@@ -232,8 +270,8 @@ void DepthBuffer::bin_boxes() {
     grid.rows = (height_ + grid.size - 1) / grid.size;
     grid.first.assign(static_cast<std::size_t>(grid.columns) * grid.rows + 1, 0);
   }
-  large_.clear();
   box_grid_.resize(boxes_.size());
+  box_tiles_.resize(boxes_.size());
   // The tile span of a box in a grid, clamped to it.
   auto span_of = [](const TileGrid& grid, const BoxedTriangle& box) {
     const auto index = [&](float x, int count) { return std::clamp(static_cast<int>(std::floor(x / grid.size)), 0, count - 1); };
@@ -247,23 +285,29 @@ void DepthBuffer::bin_boxes() {
       const auto [c0, r0, c1, r1] = span_of(grids_[g], boxes_[b]);
       if (static_cast<long long>(c1 - c0 + 1) * (r1 - r0 + 1) > kMaxTilesPerBox) continue;
       box_grid_[b] = static_cast<std::uint8_t>(g);
+      box_tiles_[b] = {c0, r0, c1, r1};
       for (int r = r0; r <= r1; ++r)
         for (int c = c0; c <= c1; ++c) ++grids_[g].first[static_cast<std::size_t>(r) * grids_[g].columns + c + 1];
       break;
     }
-    if (box_grid_[b] == grids_.size()) large_.push_back(boxes_[b]);
   }
   for (TileGrid& grid : grids_) {
     for (std::size_t cell = 1; cell < grid.first.size(); ++cell) grid.first[cell] += grid.first[cell - 1];
-    grid.entries.resize(grid.first.back());
+    grid.boxes.resize(grid.first.back());
     grid.next.assign(grid.first.begin(), grid.first.end() - 1);
   }
+  large_count_ = static_cast<std::size_t>(std::ranges::count(box_grid_, static_cast<std::uint8_t>(grids_.size())));
+  large_.resize(large_count_);
+  std::size_t large = 0;
   for (std::size_t b = 0; b < boxes_.size(); ++b) {
-    if (box_grid_[b] == grids_.size()) continue;
+    if (box_grid_[b] == grids_.size()) {
+      large_.set(large++, boxes_[b]);
+      continue;
+    }
     TileGrid& grid = grids_[box_grid_[b]];
-    const auto [c0, r0, c1, r1] = span_of(grid, boxes_[b]);
+    const auto [c0, r0, c1, r1] = box_tiles_[b];
     for (int r = r0; r <= r1; ++r)
-      for (int c = c0; c <= c1; ++c) grid.entries[grid.next[static_cast<std::size_t>(r) * grid.columns + c]++] = boxes_[b];
+      for (int c = c0; c <= c1; ++c) grid.boxes.set(grid.next[static_cast<std::size_t>(r) * grid.columns + c]++, boxes_[b]);
   }
 }
 

@@ -70,6 +70,10 @@
 // triangle costs at most 16 entries whatever its size, and a point tests the few boxes around it
 // (the tiles are as small as the triangles of dense characters, whose many layers of sub-pixel
 // triangles made an edge-connected search around the point's pixel cost thousands of tests).
+// The boxes are stored as columns and compared 16 at a time without branches; each also keeps its
+// triangle's nearest depth z_min, and a triangle with z_min >= P.z (1 - reach / |P|) is not cast
+// against (any crossing that counts lies nearer than that), which skips the point's own surface
+// and everything behind it.
 // Why the reach: the point and the mesh are skinned in float32, so P lies off its own triangle's
 // plane by ~1e-7 of its coordinates (~1 um), which the ray turns into up to that / cos(incidence)
 // along it; 1 mm covers incidence to within 0.06 degree of grazing at metre scales, and 1e-4 |P|
@@ -159,18 +163,29 @@ class DepthBuffer {
     double u, v, inverse_depth;
   };
   // A triangle's screen box (see "Visibility" above), in pixels.
+  // nearest: at most the camera depth of its nearest point (0 for a triangle cut by the near
+  // plane, which is always tested).
   struct BoxedTriangle {
-    float u0, v0, u1, v1;
+    float u0, v0, u1, v1, nearest;
     std::uint32_t triangle;
   };
+  // Boxes as columns, so that a point's scan over them compares 16 at a time; kScanBlock entries of
+  // padding (empty boxes) follow the last one, so a block may always be read whole.
+  struct BoxColumns {
+    std::vector<float> u0, v0, u1, v1, nearest;
+    std::vector<std::uint32_t> triangle;
+    void resize(std::size_t count);  // count boxes plus the padding
+    void set(std::size_t i, const BoxedTriangle& box);
+  };
+  static constexpr std::size_t kScanBlock = 16;
   // Screen boxes binned by the square tiles they meet, `size` pixels a side: tile (column, row)
-  // holds entries[first[cell] .. first[cell + 1]), cell = row * columns + column.
+  // holds boxes first[cell] .. first[cell + 1] - 1, cell = row * columns + column.
   struct TileGrid {
     int size = 0, columns = 0, rows = 0;
     std::vector<std::size_t> first, next;  // next: the fill position per cell while binning
-    std::vector<BoxedTriangle> entries;
-    // The boxes of the tile holding (u, v) (clamped to the grid); empty before the first binning.
-    std::span<const BoxedTriangle> tile(double u, double v) const;
+    BoxColumns boxes;
+    // The cell holding (u, v) (clamped to the grid).
+    std::size_t cell(double u, double v) const;
   };
   static constexpr int kFineTilePixels = 2, kCoarseTilePixels = 32, kMaxTilesPerBox = 16;
   // Bins boxes_ into grids_ and large_.
@@ -188,9 +203,12 @@ class DepthBuffer {
   static constexpr std::uint32_t kNoTriangle = 0xffffffff;
   // The last render's screen boxes: all of them, then binned (fine grid, coarse grid, and the
   // large ones that span more than kMaxTilesPerBox coarse tiles), with the grid each went to.
-  std::vector<BoxedTriangle> boxes_, large_;
+  std::vector<BoxedTriangle> boxes_;
   std::array<TileGrid, 2> grids_;
+  BoxColumns large_;
+  std::size_t large_count_ = 0;
   std::vector<std::uint8_t> box_grid_;
+  std::vector<std::array<int, 4>> box_tiles_;  // per box, its tile span in its grid: c0, r0, c1, r1
   std::vector<Eigen::Vector3d> camera_;          // vertices in camera coordinates
   std::vector<ScreenVertex> screen_;             // projections, meaningful where camera z >= near
 };
