@@ -230,10 +230,28 @@ FrameLoop::FrameLoop(std::span<const StreamActor> actors, const StreamProps* pro
     }
     s.margin = 0.25 * actor.character->rest_bounds().sizes().z();
   }
-  // Props: static, so their vertices and points are placed once.
+  // Props: their vertices and points as placed, once; moving props are carried from there.
   if (props) {
-    for (std::size_t m = 0; m < props->character.meshes.size(); ++m) {
+    const std::size_t prop_count = props->character.meshes.size();
+    if (!props->motion.empty() && props->motion.size() != static_cast<std::size_t>(frames_) * prop_count) {
+      throw std::invalid_argument("the props' motion has " + std::to_string(props->motion.size()) + " transforms, " +
+                                  std::to_string(frames_) + " frames of " + std::to_string(prop_count) + " props need " +
+                                  std::to_string(static_cast<std::size_t>(frames_) * prop_count));
+    }
+    prop_moves_.assign(prop_count, 0);
+    for (std::size_t i = 0; i < props->motion.size(); ++i) {
+      const RigidTransform<double>& m = props->motion[i];
+      if (!m.rotation.allFinite() || !m.translation.allFinite()) {
+        throw std::invalid_argument("prop '" + props->names.at(i % prop_count) + "': its motion is not finite at frame " +
+                                    std::to_string(i / prop_count));
+      }
+      if (!m.rotation.isIdentity(0) || !m.translation.isZero(0)) prop_moves_[i % prop_count] = 1;
+    }
+    std::size_t first_vertex = 0;
+    for (std::size_t m = 0; m < prop_count; ++m) {
       const CharacterMesh& mesh = props->character.meshes[m];
+      prop_first_vertex_.push_back(first_vertex);
+      first_vertex += mesh.positions.size();
       Eigen::AlignedBox3d box;
       for (const Eigen::Vector3f& p : mesh.positions) box.extend(p.cast<double>());
       prop_boxes_.push_back(box);
@@ -251,6 +269,7 @@ FrameLoop::FrameLoop(std::span<const StreamActor> actors, const StreamProps* pro
         Eigen::Vector3f p = Eigen::Vector3f::Zero();
         for (int c = 0; c < 3; ++c) p += point.barycentric[c] * mesh.positions.at(point.vertices[c]);
         prop_points_.insert(prop_points_.end(), {p.x(), p.y(), p.z()});
+        prop_point_owner_.push_back(point.mesh);
       }
     }
   }
@@ -318,7 +337,36 @@ void FrameLoop::pose(int first, int count) {
       s.boxes[f].max().array() += s.margin;
     }
   }
+  if (moving_props()) {
+    // Every prop vertex of every frame of the chunk: a moving prop's carried, x_f = M x_0 in
+    // double, then stored as float32 like the rest.
+    const std::size_t prop_count = prop_boxes_.size(), floats = prop_vertices_.size();
+    prop_frame_vertices_.resize(count * floats);
+    prop_frame_boxes_.assign(count * prop_count, Eigen::AlignedBox3d());
+    for (int f = 0; f < count; ++f) {
+      float* out = prop_frame_vertices_.data() + f * floats;
+      std::copy(prop_vertices_.begin(), prop_vertices_.end(), out);
+      for (std::size_t k = 0; k < prop_count; ++k) {
+        Eigen::AlignedBox3d& box = prop_frame_boxes_[f * prop_count + k];
+        if (!prop_moves_[k]) {
+          box = prop_boxes_[k];
+          continue;
+        }
+        const RigidTransform<double>& m = props_->motion[(first + f) * prop_count + k];
+        const std::size_t end = k + 1 < prop_count ? prop_first_vertex_[k + 1] : floats / 3;
+        for (std::size_t v = prop_first_vertex_[k]; v < end; ++v) {
+          const Eigen::Vector3d p = m * Eigen::Vector3d(out[3 * v], out[3 * v + 1], out[3 * v + 2]);
+          out[3 * v] = static_cast<float>(p.x());
+          out[3 * v + 1] = static_cast<float>(p.y());
+          out[3 * v + 2] = static_cast<float>(p.z());
+          box.extend(p);
+        }
+      }
+    }
+  }
 }
+
+bool FrameLoop::moving_props() const { return std::any_of(prop_moves_.begin(), prop_moves_.end(), [](char m) { return m != 0; }); }
 
 void FrameLoop::skin() {
   const int count = count_;
@@ -357,7 +405,18 @@ void FrameLoop::skin() {
     }
   }
   for (int f = 0; f < count && !prop_points_.empty(); ++f) {
-    std::copy(prop_points_.begin(), prop_points_.end(), trajs_3d_.begin() + (f * n + prop_first_point_) * 3);
+    float* to = trajs_3d_.data() + (f * n + prop_first_point_) * 3;
+    std::copy(prop_points_.begin(), prop_points_.end(), to);
+    if (!moving_props()) continue;
+    const std::size_t prop_count = prop_boxes_.size();
+    for (std::size_t i = 0; i < prop_point_owner_.size(); ++i) {
+      const std::uint32_t k = prop_point_owner_[i];
+      if (!prop_moves_[k]) continue;
+      const Eigen::Vector3d p = props_->motion[(first_ + f) * prop_count + k] * Eigen::Vector3d(to[3 * i], to[3 * i + 1], to[3 * i + 2]);
+      to[3 * i] = static_cast<float>(p.x());
+      to[3 * i + 1] = static_cast<float>(p.y());
+      to[3 * i + 2] = static_cast<float>(p.z());
+    }
   }
 
   // Which camera may see which actor, frame by frame; each actor's mesh is skinned once a frame
@@ -408,7 +467,7 @@ void FrameLoop::classify(std::size_t c, const CameraFrameCallback& on_frame) {
         }
       }
       for (std::size_t p = 0; p < prop_boxes_.size(); ++p) {
-        if (strictly_inside(prop_boxes_[p], centre)) {
+        if (strictly_inside(moving_props() ? prop_frame_boxes_[f * prop_boxes_.size() + p] : prop_boxes_[p], centre)) {
           throw std::invalid_argument("camera '" + camera.name + "' is inside prop '" + props_->names[p] + "' at frame " +
                                       std::to_string(frame));
         }
@@ -417,7 +476,12 @@ void FrameLoop::classify(std::size_t c, const CameraFrameCallback& on_frame) {
     // The occluders this camera may see this frame: the props, then the actors in view.
     std::vector<char> now(actors);
     for (std::size_t a = 0; a < actors; ++a) now[a] = actors_state_[a].has_mesh && sees_[(f * cameras + c) * actors + a];
-    occluder_positions_.assign(prop_vertices_.begin(), prop_vertices_.end());
+    if (moving_props()) {
+      const auto frame_vertices = prop_frame_vertices_.begin() + f * prop_vertices_.size();
+      occluder_positions_.assign(frame_vertices, frame_vertices + prop_vertices_.size());
+    } else {
+      occluder_positions_.assign(prop_vertices_.begin(), prop_vertices_.end());
+    }
     for (std::size_t a = 0; a < actors; ++a) {
       if (!now[a]) continue;
       const std::size_t v3 = actors_state_[a].vertices * 3;

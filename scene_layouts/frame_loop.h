@@ -13,8 +13,10 @@
 // the box of its joints (a vertex-animated actor's: of its vertices, placed by W(joint 0)) grown
 // by 0.25 of its rest height on every side (hands, feet and head reach beyond their joints by
 // less).
+// Props that move (StreamProps::motion) are carried rigidly frame by frame in pose: their
+// vertices (occluders, culling and inside boxes) and, in skin, their tracked points.
 // skin: every tracked point skinned once (SurfacePointSkinner over the points' corner vertices;
-// props' points are static; a vertex-animated actor's points interpolate their corners with
+// a prop's point is its triangle's corners interpolated as placed, then moved with the prop; a vertex-animated actor's points interpolate their corners with
 // their barycentric weights, so they follow the deforming triangles); each actor's whole mesh
 // skinned once a frame where some tracking camera may see it or mesh_every_frame asks for it. A
 // camera may see an actor unless all eight corners of its box lie behind it, or all project to
@@ -77,11 +79,15 @@ struct StreamActor {
 };
 
 // Every prop as one static character: joint 0 at the identity, mesh k is prop k, already in world
-// coordinates.
+// coordinates as placed at frame 0.
 struct StreamProps {
   std::vector<std::string> names;
   Character character;
   std::vector<skinning::SurfacePoint> points;
+  // Props that move (prop_physics.h): at [f * names.size() + k] the rigid motion M carrying prop
+  // k's mesh as placed to where it is in frame f (x_f = M x_0; the identity for a static prop).
+  // Empty: every prop stays where it was placed.
+  std::vector<RigidTransform<double>> motion;
 };
 
 struct StreamCamera {
@@ -181,6 +187,7 @@ class FrameLoop {
  private:
   struct ActorState;
   struct CameraState;
+  bool moving_props() const;
   std::span<const StreamActor> actors_;
   const StreamProps* props_;
   std::span<const StreamCamera> cameras_;
@@ -195,6 +202,13 @@ class FrameLoop {
   std::vector<std::uint32_t> prop_triangles_;
   std::vector<std::uint32_t> prop_triangle_ends_;  // per prop: the end of its triangles in prop_triangles_
   std::vector<Eigen::AlignedBox3d> prop_boxes_;
+  // Moving props: which props move, each prop's first vertex, each point's prop, and per frame of
+  // the chunk every prop vertex (C x Vp x 3) and box (C x P).
+  std::vector<char> prop_moves_;
+  std::vector<std::size_t> prop_first_vertex_;
+  std::vector<std::uint32_t> prop_point_owner_;
+  std::vector<float> prop_frame_vertices_;
+  std::vector<Eigen::AlignedBox3d> prop_frame_boxes_;
   std::vector<float> trajs_3d_;
   std::vector<char> sees_;  // sees_[(f C + c) A + a]: camera c may see actor a in frame f of the chunk
   std::vector<float> occluder_positions_;

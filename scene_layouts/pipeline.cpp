@@ -41,6 +41,9 @@ std::vector<std::string> scene_inputs(const Scene& scene) {
     }
   }
   for (const Prop& prop : scene.props) inputs.push_back(prop.path);
+  if (scene.scatter) {
+    for (const Prop& prop : scene.scatter->props) inputs.push_back(prop.path);
+  }
   for (const SceneCamera& camera : scene.cameras) {
     if (const auto* file = std::get_if<FileRig>(&camera.rig)) inputs.push_back(file->path);
     if (const auto* imported = std::get_if<ImportedRig>(&camera.rig)) inputs.push_back(imported->path);
@@ -224,7 +227,18 @@ nlohmann::ordered_json scene_report_json(const SceneResult& result) {
   }
   json["props"] = nlohmann::ordered_json::array();
   for (std::size_t p = 0; p < result.props.names.size(); ++p) {
-    json["props"].push_back({{"name", result.props.names[p]}, {"id", -1 - static_cast<int>(p)}});
+    nlohmann::ordered_json entry = {{"name", result.props.names[p]}, {"id", -1 - static_cast<int>(p)}};
+    if (p < result.prop_reports.size() && result.prop_reports[p]) {
+      // What the simulation did (physics/rigid_scene.h, PropReport): metres, m/s, frames.
+      const physics::PropReport& r = *result.prop_reports[p];
+      entry["dynamic"] = {{"path_length_m", r.path_length},
+                          {"top_speed_m_s", r.top_speed},
+                          {"contact_frames", r.contact_frames},
+                          {"contact_events", r.contact_events},
+                          {"deepest_penetration_m", r.deepest_penetration},
+                          {"deepest_prop_overlap_m", r.deepest_prop_overlap}};
+    }
+    json["props"].push_back(entry);
   }
   json["cameras"] = nlohmann::ordered_json::array();
   for (std::size_t c = 0; c < result.cameras.size(); ++c) {
@@ -249,6 +263,7 @@ nlohmann::ordered_json scene_report_json(const SceneResult& result) {
   json["notes"] = result.notes;
   json["outputs"] = result.outputs;
   json["timings_s"] = {{"retarget", result.seconds.retarget},
+                       {"physics", result.physics_seconds},
                        {"streams", result.seconds.streams},
                        {"total", result.seconds.total}};
   return json;

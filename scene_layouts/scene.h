@@ -19,10 +19,12 @@
 // height, swept over the scene's frames; two actors whose discs overlap in some frame are an
 // error naming both and the frame (or, placed at random, drawn again).
 //
-// Props are static rigid geometry: a ground plane (size x, y, centred on `position`), a box (size
-// x, y, z; its bottom face centred on `position`), or a mesh file (glTF/GLB at its rest pose, or
-// OBJ, read Y up like Blender's default export unless `up_z`), each turned by `yaw` degrees about
-// the vertical and scaled by `scale` before it is moved to `position`.
+// Props are rigid geometry: a ground plane (size x, y, centred on `position`), a box (size x, y,
+// z; its bottom face centred on `position`), or a mesh file (glTF/GLB at its rest pose, or OBJ,
+// read Y up like Blender's default export unless `up_z`), each turned by `yaw` degrees about the
+// vertical and scaled by `scale` before it is moved to `position`. A prop is static unless it has
+// `dynamics`: then Bullet moves it (prop_physics.h), pushed by the actors' bones, by the scene's
+// `forces` and by other props. `scatter` adds seeded props on the ground (prop_physics.h).
 #pragma once
 
 #include <Eigen/Core>
@@ -76,8 +78,42 @@ struct Prop {
   bool up_z = false;                               // mesh from OBJ: already Z up
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   double yaw_deg = 0, scale = 1;
+  // Set: a dynamic prop (a box collides as a box, a mesh as the convex hull of its vertices).
+  struct Dynamics {
+    double mass = 1;           // kg, > 0, spread uniformly over the shape's volume
+    double friction = 0.5;     // [0, 2]; a contact uses the product of both bodies' values
+    double restitution = 0.5;  // [0, 1]; likewise
+    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();          // m/s at t = 0, of the prop's origin
+    Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  // rad/s at t = 0, world axes
+  };
+  std::optional<Dynamics> dynamics;
 };
 
+// Seeded kicks on the dynamic props (physics/sampling.h, sample_impulses): per prop, `count` kicks
+// over the shot (or `rate` per second on average), each a change of velocity of |dv| uniform in
+// [min, max] m/s (impulse = mass dv), heading uniform, upward share of the direction uniform in
+// [0, max_upward], acting at a point uniform in the ball of radius lever_arm about the prop's
+// origin (so it also spins the prop).
+struct SceneForces {
+  std::optional<double> count;  // kicks per prop over the shot; when set, rate = count / duration
+  double rate = 0.1;            // kicks per prop per second
+  double min_speed_change = 0.5, max_speed_change = 2.0;  // m/s
+  double max_upward = 0.5;                                // [0, 1]
+  double lever_arm = 0;                                   // m
+};
+
+// `count` props drawn (seeded) from `props` (templates; their positions and yaws are ignored),
+// stood on the ground (z = 0) without overlapping each other or the actors where they stand at
+// frame 0; the first `on_paths` lie on the actors' root paths that travel 1 m or more (prop i on
+// the i mod P-th of those P paths), the rest anywhere in `region` (x, y). They are named "<template name>_<k>" and come after the
+// scene's own props.
+struct SceneScatter {
+  int count = 0;
+  std::vector<Prop> props;  // at least one
+  Eigen::AlignedBox2d region{Eigen::Vector2d(-5, -5), Eigen::Vector2d(5, 5)};
+  int on_paths = 0;
+  double gap = 0.05;  // m of clearance between footprints
+};
 // Camera kinds: each holds only its own settings; SceneCamera holds what every camera has. Unset
 // positions and targets follow the actors' framing (shot_cameras.h).
 //
@@ -205,6 +241,8 @@ struct Scene {
   std::uint64_t seed = 0;
   std::vector<SceneActor> actors;
   std::vector<Prop> props;
+  std::optional<SceneForces> forces;
+  std::optional<SceneScatter> scatter;
   std::vector<SceneCamera> cameras;
   SceneOutputs outputs;
 };

@@ -228,8 +228,87 @@ SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& 
   return actor;
 }
 
+// A dynamic prop's keys (scene.h, Prop::Dynamics); they belong to dynamic props only.
+void read_dynamics(const JsonValue& item, const std::string& kind, Prop& prop) {
+  const bool dynamic = item.find("dynamic") && item.member("dynamic").boolean();
+  if (!dynamic) {
+    for (const char* key : {"mass", "friction", "restitution", "velocity", "angular_velocity"}) {
+      if (const auto value = item.find(key)) value->fail("only a dynamic prop (\"dynamic\": true) takes this key");
+    }
+    return;
+  }
+  if (kind == "ground") item.member("dynamic").fail("a ground cannot be dynamic");
+  Prop::Dynamics& d = prop.dynamics.emplace();
+  if (const auto value = item.find("mass")) {
+    d.mass = value->number();
+    if (!(d.mass > 0) || d.mass > 1e6) value->fail("a mass is kilograms in (0, 1e6], got " + std::to_string(d.mass));
+  }
+  if (const auto value = item.find("friction")) d.friction = value->number_in(0, 2);
+  if (const auto value = item.find("restitution")) d.restitution = value->number_in(0, 1);
+  // Speeds beyond these are no prop's: 1 km/s, 1000 rad/s.
+  const auto bounded = [](const JsonValue& value, double limit, const char* unit) {
+    const Eigen::Vector3d v = vector3(value);
+    if (!v.allFinite() || v.norm() > limit) value.fail(std::string("expected a finite [x, y, z] in ") + unit + " of norm at most " + std::to_string(int(limit)));
+    return v;
+  };
+  if (const auto value = item.find("velocity")) d.velocity = bounded(*value, 1e3, "m/s");
+  if (const auto value = item.find("angular_velocity")) d.angular_velocity = bounded(*value, 1e3, "rad/s");
+}
+
+// A region [x_min, y_min, x_max, y_max] of the ground.
+Eigen::AlignedBox2d read_region(const JsonValue& region) {
+  if (region.size() != 4) region.fail("expected [x_min, y_min, x_max, y_max]");
+  const Eigen::Vector2d low(region[0].number(), region[1].number()), high(region[2].number(), region[3].number());
+  if (!(low.array() < high.array()).all()) region.fail("expected x_min < x_max and y_min < y_max");
+  return Eigen::AlignedBox2d(low, high);
+}
+
+SceneForces read_forces(const JsonValue& item) {
+  item.allow_only({"count", "rate", "speed_change", "max_upward", "lever_arm"});
+  SceneForces forces;
+  if (const auto value = item.find("count")) forces.count = value->number_in(0, 1e6);
+  if (const auto value = item.find("rate")) {
+    if (forces.count) value->fail("give count or rate, not both");
+    forces.rate = value->number_in(0, 1e3);
+  }
+  if (const auto value = item.find("speed_change")) {
+    if (value->size() != 2) value->fail("expected [min, max] in m/s");
+    forces.min_speed_change = (*value)[0].number_in(0, 1e3);
+    forces.max_speed_change = (*value)[1].number_in(0, 1e3);
+    if (forces.min_speed_change > forces.max_speed_change) value->fail("expected min <= max");
+  }
+  if (const auto value = item.find("max_upward")) forces.max_upward = value->number_in(0, 1);
+  if (const auto value = item.find("lever_arm")) forces.lever_arm = value->number_in(0, 100);
+  return forces;
+}
+
+Prop read_prop(const JsonValue& item, std::size_t index, const fs::path& base);
+
+SceneScatter read_scatter(const JsonValue& item, const fs::path& base) {
+  item.allow_only({"count", "props", "region", "on_paths", "gap"});
+  SceneScatter scatter;
+  scatter.count = static_cast<int>(item.member("count").integer(1, 100'000));
+  const JsonValue props = item.member("props");
+  if (props.size() == 0) props.fail("a scatter needs at least one prop to draw from");
+  for (std::size_t p = 0; p < props.size(); ++p) {
+    scatter.props.push_back(read_prop(props[p], p, base));
+    if (!props[p].find("name")) scatter.props.back().name = "scatter" + std::to_string(p);
+    if (scatter.props.back().kind == Prop::Kind::ground) props[p].member("type").fail("a ground cannot be scattered");
+    for (const char* key : {"position", "yaw"}) {
+      if (const auto value = props[p].find(key)) value->fail("a scattered prop's place is drawn: it takes no position or yaw");
+    }
+  }
+  if (const auto value = item.find("region")) scatter.region = read_region(*value);
+  if (const auto value = item.find("on_paths")) {
+    scatter.on_paths = static_cast<int>(value->integer(0, scatter.count));
+  }
+  if (const auto value = item.find("gap")) scatter.gap = value->number_in(0, 100);
+  return scatter;
+}
+
 Prop read_prop(const JsonValue& item, std::size_t index, const fs::path& base) {
-  item.allow_only({"name", "type", "size", "path", "up", "position", "yaw", "scale", "category"});
+  item.allow_only({"name", "type", "size", "path", "up", "position", "yaw", "scale", "category", "dynamic", "mass", "friction",
+                   "restitution", "velocity", "angular_velocity"});
   Prop prop;
   prop.name = name_of(item, "prop" + std::to_string(index));
   const JsonValue type = item.member("type");
@@ -275,6 +354,7 @@ Prop read_prop(const JsonValue& item, std::size_t index, const fs::path& base) {
   if (const auto value = item.find("position")) prop.position = vector3(*value);
   if (const auto value = item.find("yaw")) prop.yaw_deg = value->number();
   if (const auto value = item.find("scale")) prop.scale = value->number_in(1e-6, 1e6);
+  read_dynamics(item, kind, prop);
   return prop;
 }
 
@@ -471,7 +551,7 @@ std::string bundled_data_folder() {
 SceneFile parse_scene(const std::string& json_text, const std::string& path) {
   const io::JsonDocument document = io::JsonDocument::parse(json_text, path);
   const JsonValue root = document.root();
-  root.allow_only({"version", "name", "fps", "seconds", "seed", "actors", "props", "cameras", "outputs", "description"});
+  root.allow_only({"version", "name", "fps", "seconds", "seed", "actors", "props", "forces", "scatter", "cameras", "outputs", "description"});
   const long long version = root.member("version").integer(1, 1000);
   if (version != kSceneFileVersion) {
     root.member("version").fail("version " + std::to_string(version) + " is not one this odyssey reads (it reads " +
@@ -498,6 +578,20 @@ SceneFile parse_scene(const std::string& json_text, const std::string& path) {
     for (std::size_t p = 0; p < props->size(); ++p) {
       scene.props.push_back(read_prop((*props)[p], p, base));
       if (!names.insert(scene.props.back().name).second) (*props)[p].member("name").fail("an actor or prop has this name");
+    }
+  }
+  if (const auto scatter = root.find("scatter")) {
+    scene.scatter = read_scatter(*scatter, base);
+    for (std::size_t p = 0; p < scene.scatter->props.size(); ++p) {
+      if (!names.insert(scene.scatter->props[p].name).second) (*scatter).member("props")[p].member("name").fail("an actor or prop has this name");
+    }
+  }
+  if (const auto forces = root.find("forces")) {
+    scene.forces = read_forces(*forces);
+    const auto dynamic = [](const Prop& prop) { return prop.dynamics.has_value(); };
+    if (std::none_of(scene.props.begin(), scene.props.end(), dynamic) &&
+        !(scene.scatter && std::any_of(scene.scatter->props.begin(), scene.scatter->props.end(), dynamic))) {
+      forces->fail("no dynamic prop for the forces to act on");
     }
   }
   if (const auto cameras = root.find("cameras")) {

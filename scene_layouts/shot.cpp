@@ -13,6 +13,7 @@
 #include "mocap_io/input_error.h"
 #include "mocap_io/obj_mesh.h"
 #include "scene_layouts/placement.h"
+#include "scene_layouts/prop_physics.h"
 #include "scene_layouts/shot_cameras.h"
 
 namespace odyssey::scene {
@@ -82,7 +83,7 @@ void validate_scene(const Scene& scene) {
   require(out.glb.empty() || std::holds_alternative<RetargetRequest>(scene.actors[0].source),
           "scene outputs: the one-actor GLB animates a retargeted character; write the scene GLB for other actors");
   require(out.points_per_actor >= 0 && out.prop_points >= 0, "scene outputs: point counts must be 0 or more");
-  require(out.prop_points == 0 || !scene.props.empty(), "scene outputs: prop points asked for, but the scene has no props");
+  require(out.prop_points == 0 || !scene.props.empty() || scene.scatter, "scene outputs: prop points asked for, but the scene has no props");
 }
 
 // Everything that changes what a source builds: identical keys are built once.
@@ -134,86 +135,6 @@ ActorMotion build_motion(const AnimeRequest& request, const ProgressCallback& pr
   ActorMotion motion = play_anime(request);
   report_played(motion, "load_anime", progress);
   return motion;
-}
-
-// A static character of one joint at the identity whose meshes are the props in world
-// coordinates, rigidly bound to it.
-StreamProps build_props(const std::vector<Prop>& props) {
-  StreamProps out;
-  out.character.name = "props";
-  out.character.skeleton = Skeleton({"props"}, {-1}, {Eigen::Vector3d::Zero()}, {Eigen::Quaterniond::Identity()});
-  for (const Prop& prop : props) {
-    std::vector<Eigen::Vector3d> positions;
-    std::vector<std::uint32_t> triangles;
-    if (prop.kind == Prop::Kind::ground) {
-      const double x = prop.size.x() / 2, y = prop.size.y() / 2;
-      if (!(x > 0 && y > 0 && std::isfinite(x) && std::isfinite(y))) {
-        throw std::invalid_argument("prop '" + prop.name + "': a ground needs a positive size x, y");
-      }
-      positions = {{-x, -y, 0}, {x, -y, 0}, {x, y, 0}, {-x, y, 0}};
-      triangles = {0, 1, 2, 0, 2, 3};
-    } else if (prop.kind == Prop::Kind::box) {
-      const Eigen::Vector3d h(prop.size.x() / 2, prop.size.y() / 2, prop.size.z());
-      if (!((h.array() > 0).all() && h.allFinite())) {
-        throw std::invalid_argument("prop '" + prop.name + "': a box needs a positive size x, y, z");
-      }
-      // Corner c of the box is (+-x, +-y, 0 or z) by its bits; two triangles per face, outward
-      // winding. Each face gets its own four vertices, so a face's vertex normals are its own
-      // normal: renderers shade the box flat and the normal maps (dense_maps.h) agree.
-      constexpr std::array<std::uint32_t, 36> kFaces = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
-                                                        2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
-      for (std::size_t face = 0; face < 6; ++face) {
-        std::map<std::uint32_t, std::uint32_t> vertex_of_corner;
-        for (std::size_t k = 6 * face; k < 6 * face + 6; ++k) {
-          const std::uint32_t c = kFaces[k];
-          const auto [slot, added] = vertex_of_corner.try_emplace(c, static_cast<std::uint32_t>(positions.size()));
-          if (added) positions.emplace_back(c & 1 ? h.x() : -h.x(), c & 2 ? h.y() : -h.y(), c & 4 ? h.z() : 0.0);
-          triangles.push_back(slot->second);
-        }
-      }
-    } else {
-      std::string extension = std::filesystem::path(prop.path).extension().string();
-      std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-      if (extension == ".obj") {
-        const io::ObjMesh mesh = io::load_obj(prop.path);
-        for (const Eigen::Vector3f& p : mesh.positions) {
-          // OBJ files from Blender's default export are Y up, -Z forward: (x, y, z) -> (x, -z, y).
-          positions.push_back(prop.up_z ? p.cast<double>() : Eigen::Vector3d(p.x(), -p.z(), p.y()));
-        }
-        triangles = mesh.triangles;
-      } else if (extension == ".glb" || extension == ".gltf") {
-        const Character character = io::load_character(prop.path);
-        const std::vector<RigidTransform<double>> rest = character.skeleton.rest_world();
-        for (const CharacterMesh& mesh : character.meshes) {
-          const auto offset = static_cast<std::uint32_t>(positions.size());
-          const std::vector<Eigen::Vector3d> skinned = skin_mesh_reference(mesh, rest);
-          positions.insert(positions.end(), skinned.begin(), skinned.end());
-          for (const std::uint32_t corner : mesh.triangles) triangles.push_back(offset + corner);
-        }
-        if (triangles.empty()) throw io::InputError(prop.path, "no triangles: a prop mesh needs some");
-      } else {
-        throw io::InputError(prop.path, "unsupported prop mesh type '" + extension + "' (expected .glb, .gltf or .obj)");
-      }
-    }
-    const Eigen::Matrix3d rotation = yaw_rotation(prop.yaw_deg) * prop.scale;
-    CharacterMesh mesh;
-    mesh.name = prop.name;
-    for (const Eigen::Vector3d& p : positions) {
-      const Eigen::Vector3d world = rotation * p + prop.position;
-      if (!world.allFinite()) throw std::invalid_argument("prop '" + prop.name + "': a vertex is not finite");
-      mesh.positions.push_back(world.cast<float>());
-    }
-    mesh.triangles = std::move(triangles);
-    mesh.skin_joints = {0};
-    mesh.inverse_bind = {Eigen::Matrix4d::Identity()};
-    mesh.influence_slots.assign(mesh.positions.size(), {0, 0, 0, 0});
-    mesh.influence_weights.assign(mesh.positions.size(), {1, 0, 0, 0});
-    out.character.meshes.push_back(std::move(mesh));
-    out.character.source_node_of_joint = {0};
-    out.character.source_scale_of_joint = {1};
-    out.names.push_back(prop.name);
-  }
-  return out;
 }
 
 std::vector<skinning::SurfacePoint> sample_actor_points(const SceneActor& spec, const ActorMotion& actor, int count,
@@ -288,7 +209,15 @@ Shot prepare_shot(const Scene& scene, const PrepareOptions& options, const Progr
   shot.retarget_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   shot.frames = time_actors(scene, shot.actors);
   place_actors(scene, shot.frames, shot.actors);
-  shot.props = build_props(scene.props);
+  std::vector<Prop> props;
+  std::vector<PropGeometry> geometry;
+  gather_props(scene, shot.actors, props, geometry);
+  std::set<std::string> names;
+  for (const Prop& prop : props) {
+    if (!names.insert(prop.name).second) throw std::invalid_argument("scene: two props are called '" + prop.name + "' (a scattered prop is <template>_<k>)");
+  }
+  shot.props = build_props(props, geometry);
+  simulate_props(scene, props, geometry, shot);
   const Framing framing = frame_actors(shot.actors);
   for (std::size_t c = 0; c < scene.cameras.size(); ++c) {
     const SceneCamera& camera = scene.cameras[c];

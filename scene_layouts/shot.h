@@ -5,7 +5,8 @@
 // Steps: validate the scene; build each actor's motion from its source (actor_source.h: a motion
 // retargeted, a character's own animation played, a .anime mesh read; identical requests are built
 // once); put each actor's clip (and an anime's vertices) on the scene's timeline and placement and
-// check the footprints (placement.h); build the props (props.h); make every camera's path
+// check the footprints (placement.h); build the props, scatter more and simulate the dynamic ones
+// (prop_physics.h); make every camera's path
 // (shot_cameras.h); sample tracked points (actor k with seed + k, the props with seed + 1000) when
 // asked.
 #pragma once
@@ -15,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "physics/rigid_scene.h"
 #include "scene_layouts/actor.h"
 #include "scene_layouts/actor_source.h"
 #include "scene_layouts/frame_loop.h"
@@ -48,11 +50,14 @@ struct Shot {
   int frames = 0;
   std::uint64_t seed = 0;
   std::vector<PlacedActor> actors;
-  StreamProps props;                 // every prop as a mesh in world coordinates (mesh k: prop k), with its points
+  StreamProps props;                 // every prop as a mesh in world coordinates (mesh k: prop k), with its points and motion
+  // Per prop (the scene's, then the scattered): what a dynamic prop did; empty for a static one.
+  std::vector<std::optional<physics::PropReport>> prop_reports;
   std::vector<ShotCamera> cameras;
   std::vector<std::string> skipped;  // work not done, one line each
   std::vector<std::string> notes;    // what an input held that the outputs do not carry (a lens distortion), one line each
   double retarget_seconds = 0;       // building the actors' motions
+  double physics_seconds = 0;        // scattering and simulating the props
 };
 
 struct PrepareOptions {

@@ -1,0 +1,243 @@
+// Props that react (scene_layouts/prop_physics.h): a dropped box settles on the ground, a box on a
+// walker's path is kicked forward when the feet reach it and not before, the same scene gives the
+// same bytes whatever the thread count, and bad dynamic keys name the file and the JSON path.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "mocap_io/input_error.h"
+#include "scene_layouts/frame_loop.h"
+#include "scene_layouts/pipeline.h"
+#include "scene_layouts/placement.h"
+#include "scene_layouts/scene_file.h"
+#include "scene_layouts/shot.h"
+#include "scene_support.h"
+#include "test_support.h"
+
+namespace odyssey {
+namespace {
+
+using test_support::contains;
+
+// One walker placed at (x, y) facing yaw, tracking no points of its own, a camera far off, and
+// `props` with 300 tracked points among them.
+scene::Scene shot_with(const std::vector<scene::Prop>& props, double x, double y, double yaw, double seconds) {
+  scene::Scene s;
+  s.name = "physics";
+  s.seconds = seconds;
+  s.actors.push_back(test_support::walker("walker", test_support::kSceneFigure, x, y, yaw));
+  s.actors.back().points = 0;
+  s.props = props;
+  scene::SceneCamera camera;
+  camera.name = "far";
+  camera.rig = scene::StaticRig{Eigen::Vector3d(0, -20, 4), Eigen::Vector3d(0, 0, 0.5), 0};
+  s.cameras.push_back(camera);
+  s.outputs.prop_points = 300;
+  return s;
+}
+
+scene::Prop dynamic_box(const std::string& name, const Eigen::Vector3d& position, double edge) {
+  scene::Prop box;
+  box.name = name;
+  box.kind = scene::Prop::Kind::box;
+  box.size = Eigen::Vector3d::Constant(edge);
+  box.position = position;
+  box.dynamics.emplace();
+  return box;
+}
+
+// The props' tracked points of every frame, [frame][point][xyz], through the frame loop.
+std::vector<Eigen::Vector3f> prop_trajectories(const scene::Shot& shot, int threads = 1) {
+  const std::vector<scene::StreamActor> actors = scene::stream_actors(shot);
+  const std::vector<scene::StreamCamera> cameras = scene::stream_cameras(shot);
+  scene::StreamOptions options;
+  options.threads = threads;
+  scene::FrameLoop loop(actors, scene::stream_props(shot), cameras, options);
+  const std::size_t n = loop.point_count(), first_prop = n - shot.props.points.size();
+  std::vector<Eigen::Vector3f> out;
+  for (int first = 0; first < loop.frame_count(); first += loop.chunk_frames()) {
+    const int count = std::min(loop.chunk_frames(), loop.frame_count() - first);
+    loop.pose(first, count);
+    loop.skin();
+    for (std::size_t c = 0; c < cameras.size(); ++c) loop.classify(c);
+    const scene::FrameChunk chunk = loop.chunk();
+    for (int f = 0; f < count; ++f) {
+      for (std::size_t i = first_prop; i < n; ++i) out.push_back(Eigen::Vector3f::Map(chunk.trajs_3d.data() + (f * n + i) * 3));
+    }
+  }
+  return out;
+}
+
+TEST(PropPhysicsTest, BoxDroppedFromOneMetreSettlesOnTheGround) {
+  // The walker starts 10 m away and walks away from the box.
+  const scene::Shot shot = scene::prepare_shot(shot_with({dynamic_box("box", Eigen::Vector3d(-3, 0, 1), 0.2)}, 7, 0, 0, 3));
+  const std::size_t points = shot.props.points.size();
+  ASSERT_EQ(points, 300u);
+  const std::vector<Eigen::Vector3f> p = prop_trajectories(shot);
+  const int frames = shot.frames;
+  ASSERT_EQ(p.size(), frames * points);
+  const auto at = [&](int f, std::size_t i) { return p[f * points + i]; };
+  // Falling from rest: after 0.3 s it has dropped g t^2 / 2 = 0.44 m (no contact yet).
+  float top0 = -1e9f, top9 = -1e9f;
+  for (std::size_t i = 0; i < points; ++i) {
+    top0 = std::max(top0, at(0, i).z());
+    top9 = std::max(top9, at(9, i).z());
+  }
+  EXPECT_NEAR(top0 - top9, 0.5 * 9.81 * 0.3 * 0.3, 0.01);
+  // Settled within 2 s: from frame 60 on no point moves more than 0.1 mm a frame, and the lowest
+  // points rest on z = 0 within 5 mm.
+  double worst_step = 0;
+  for (int f = 61; f < frames; ++f) {
+    for (std::size_t i = 0; i < points; ++i) worst_step = std::max(worst_step, double((at(f, i) - at(f - 1, i)).norm()));
+  }
+  EXPECT_LT(worst_step, 1e-4);
+  float lowest = 1e9f;
+  for (std::size_t i = 0; i < points; ++i) lowest = std::min(lowest, at(frames - 1, i).z());
+  EXPECT_NEAR(lowest, 0.0, 0.005);
+  ASSERT_EQ(shot.prop_reports.size(), 1u);
+  ASSERT_TRUE(shot.prop_reports[0].has_value());
+  EXPECT_GT(shot.prop_reports[0]->contact_frames, 30);
+  EXPECT_LT(shot.prop_reports[0]->deepest_penetration, 0.005);
+}
+
+TEST(PropPhysicsTest, BoxOnAWalkersPathIsKickedForwardWhenTheFeetReachIt) {
+  // Where the walker's root is 1.2 s in: the box goes there, on the ground.
+  scene::Scene probe = shot_with({}, 0, 0, 0, 3);
+  probe.outputs.prop_points = 0;
+  const scene::Shot walk = scene::prepare_shot(probe);
+  const int root = walk.actors[0].motion->root_joint;
+  const std::vector<Eigen::Vector2d> track = scene::root_track(walk.actors[0].clip, root);
+  const Eigen::Vector2d there = track.at(36);
+  const Eigen::Vector2d heading = (track.back() - track.front()).normalized();
+
+  const scene::Shot shot = scene::prepare_shot(shot_with({dynamic_box("box", Eigen::Vector3d(there.x(), there.y(), 0), 0.25)}, 0, 0, 0, 3));
+  const std::size_t points = shot.props.points.size();
+  const std::vector<Eigen::Vector3f> p = prop_trajectories(shot);
+  const int frames = shot.frames;
+  const auto moved = [&](int f) {
+    double most = 0;
+    for (std::size_t i = 0; i < points; ++i) most = std::max(most, double((p[f * points + i] - p[i]).norm()));
+    return most;
+  };
+  int first_moved = -1;
+  for (int f = 1; f < frames && first_moved < 0; ++f) {
+    if (moved(f) > 1e-3) first_moved = f;
+  }
+  ASSERT_GT(first_moved, 0) << "the box never moved";
+  // Not before: still (under 1 mm) through the first 0.5 s at least, while the walker is more than
+  // half a metre off.
+  EXPECT_GT(first_moved, 15);
+  // When it starts to move, some joint of the walker is within 0.35 m of the box's centre (a foot
+  // or a shin touching its side).
+  std::vector<RigidTransform<double>> joints(shot.actors[0].clip.joint_count());
+  shot.actors[0].clip.world_pose(first_moved, joints);
+  double nearest = 1e9;
+  for (const auto& joint : joints) nearest = std::min(nearest, (joint.translation - Eigen::Vector3d(there.x(), there.y(), 0.125)).norm());
+  EXPECT_LT(nearest, 0.35);
+  // After: displaced by more than 5 cm, mostly along the walking direction.
+  Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+  for (std::size_t i = 0; i < points; ++i) shift += (p[(frames - 1) * points + i] - p[i]).head<2>().cast<double>();
+  shift /= static_cast<double>(points);
+  EXPECT_GT(shift.dot(heading), 0.05);
+  EXPECT_GT(shift.dot(heading), std::abs(shift.x() * heading.y() - shift.y() * heading.x()));
+}
+
+std::string bytes_of(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+TEST(PropPhysicsTest, SameSceneGivesByteIdenticalTrajectoriesOnAnyThreadCount) {
+  const std::filesystem::path dir = test_support::scratch_dir("PropPhysicsTest");
+  const auto run = [&](int threads, const std::string& folder) {
+    scene::Scene s = shot_with({dynamic_box("box", Eigen::Vector3d(1, 0.2, 0.3), 0.3)}, 0, 0, 0, 2);
+    s.scatter.emplace();
+    s.scatter->count = 6;
+    s.scatter->on_paths = 2;
+    s.scatter->region = Eigen::AlignedBox2d(Eigen::Vector2d(-3, -3), Eigen::Vector2d(3, 3));
+    scene::Prop crate = dynamic_box("crate", Eigen::Vector3d::Zero(), 0.2);
+    s.scatter->props = {crate};
+    s.forces.emplace();
+    s.forces->count = 1;
+    s.outputs.threads = threads;
+    scene::OutputSelection which;
+    which.camera_paths = false;
+    which.report = false;
+    scene::set_outputs_in_folder(s, (dir / folder).string(), which);
+    std::filesystem::create_directories(dir / folder);
+    scene::run_scene(s);
+    return bytes_of(dir / folder / "trajectories_far.npz");
+  };
+  const std::string one = run(1, "a"), again = run(1, "b"), two = run(2, "c");
+  ASSERT_GT(one.size(), 1000u);
+  EXPECT_TRUE(one == again);
+  EXPECT_TRUE(one == two);
+}
+
+std::string parse_error(const std::string& props) {
+  const std::string json = R"({"version": 1, "actors": [{"motion": "a.bvh", "character": "c.glb"}], )" + props + "}";
+  return test_support::message_of<io::InputError>([&] { scene::parse_scene(json, "shot.json"); });
+}
+
+TEST(PropPhysicsTest, BadDynamicKeysNameTheFileAndTheJsonPath) {
+  EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1], "dynamic": true, "mass": -1}])"),
+                       "shot.json: props[0].mass: a mass is kilograms in (0, 1e6]"));
+  EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1], "dynamic": true, "mass": 0}])"),
+                       "shot.json: props[0].mass:"));
+  EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1], "dynamic": true, "velocity": [1, 2]}])"),
+                       "shot.json: props[0].velocity: expected [x, y, z]"));
+  EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1], "dynamic": true, "velocity": [1e300, 0, 0]}])"),
+                       "shot.json: props[0].velocity: expected a finite [x, y, z] in m/s"));
+  EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1], "mass": 2}])"),
+                       "shot.json: props[0].mass: only a dynamic prop"));
+  EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "ground", "size": [1, 1], "dynamic": true}])"),
+                       "shot.json: props[0].dynamic: a ground cannot be dynamic"));
+  EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1], "dynamic": true, "restitution": 2}])"),
+                       "shot.json: props[0].restitution:"));
+  EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1]}], "forces": {"count": 1})"),
+                       "shot.json: forces: no dynamic prop for the forces to act on"));
+  EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1], "dynamic": true}], "forces": {"count": 1, "rate": 2})"),
+                       "shot.json: forces.rate: give count or rate, not both"));
+  EXPECT_TRUE(contains(parse_error(R"("scatter": {"count": 3, "props": [{"type": "box", "size": [1, 1, 1], "position": [0, 0, 0]}]})"),
+                       "shot.json: scatter.props[0].position: a scattered prop's place is drawn"));
+  EXPECT_TRUE(contains(parse_error(R"("scatter": {"count": 3, "props": [{"type": "box", "size": [1, 1, 1]}], "region": [0, 0, -1, 1]})"),
+                       "shot.json: scatter.region: expected x_min < x_max"));
+}
+
+TEST(PropPhysicsTest, ScenesThatCannotBeSimulatedNameTheJsonPath) {
+  const std::filesystem::path dir = test_support::scratch_dir("PropPhysicsTest");
+  // A flat mesh (a square) has no volume for a hull.
+  {
+    std::ofstream obj(dir / "flat.obj");
+    obj << "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nv 0.5 0 0.5\nf 1 2 3\nf 1 3 4\n";
+  }
+  scene::Prop flat;
+  flat.name = "flat";
+  flat.kind = scene::Prop::Kind::mesh;
+  flat.path = (dir / "flat.obj").string();
+  flat.position = Eigen::Vector3d(3, 3, 0);
+  flat.dynamics.emplace();
+  scene::Scene s = shot_with({dynamic_box("box", Eigen::Vector3d(-3, 0, 0), 0.2), flat}, 0, 0, 0, 1);
+  s.file = "shot.json";
+  EXPECT_TRUE(contains(test_support::message_of<io::InputError>([&] { scene::prepare_shot(s); }),
+                       "shot.json: props[1]: a dynamic mesh needs a volume for its convex hull"));
+  // Thirty 1 m crates cannot fit a 2 m square.
+  scene::Scene crowded = shot_with({}, 0, 0, 0, 1);
+  crowded.file = "shot.json";
+  crowded.scatter.emplace();
+  crowded.scatter->count = 30;
+  crowded.scatter->region = Eigen::AlignedBox2d(Eigen::Vector2d(4, 4), Eigen::Vector2d(6, 6));
+  crowded.scatter->props = {dynamic_box("crate", Eigen::Vector3d::Zero(), 1)};
+  EXPECT_TRUE(contains(test_support::message_of<io::InputError>([&] { scene::prepare_shot(crowded); }), "shot.json: scatter: "));
+}
+
+}  // namespace
+}  // namespace odyssey
