@@ -281,8 +281,8 @@ void append(std::vector<float>& out, const Eigen::Vector3d& v) {
 class SceneGlbBuilder {
  public:
   SceneGlbBuilder(const std::string& path, std::span<const SceneGlbActor> actors, const Character* props,
-                  std::span<const SceneGlbCamera> cameras, double fps)
-      : path_(path), actors_(actors), props_(props), cameras_(cameras), fps_(fps) {}
+                  std::span<const SceneGlbCamera> cameras, double fps, std::span<const RigidTransform<double>> prop_motion)
+      : path_(path), actors_(actors), props_(props), cameras_(cameras), fps_(fps), prop_motion_(prop_motion) {}
 
   std::string build() {
     check_timing();
@@ -342,6 +342,13 @@ class SceneGlbBuilder {
       require(camera.rides_on < 0 || (camera.rides_on < static_cast<int>(actors_.size()) && camera.hidden_joint >= 0 &&
                                       camera.hidden_joint < static_cast<int>(actors_[camera.rides_on].character->skeleton.joint_count())),
               label + ": rides on no actor of the scene, or hides no joint of its skeleton");
+    }
+    if (!prop_motion_.empty()) {
+      const std::size_t count = props_ != nullptr ? props_->meshes.size() : 0;
+      require(count > 0 && prop_motion_.size() % count == 0,
+              "the props' motion holds " + std::to_string(prop_motion_.size()) + " transforms, not whole frames of " + std::to_string(count) + " props");
+      check_frames(static_cast<int>(prop_motion_.size() / count), "the props' motion");
+      for (const RigidTransform<double>& m : prop_motion_) require(m.rotation.allFinite() && m.translation.allFinite(), "a prop's motion is not finite");
     }
     if (frames_ < 0) frames_ = 0;
   }
@@ -518,8 +525,32 @@ class SceneGlbBuilder {
       for (std::size_t v = 0; v < positions.size(); ++v) positions[v] = to_gltf(Eigen::Vector3d(mesh.positions[v].cast<double>()));
       const int mesh_index = add_mesh(name, flat(positions), vertex_normals(positions, mesh.triangles), mesh.triangles, colour,
                                       nullptr, nullptr);
-      add_node({{"name", name}, {"mesh", mesh_index}, {"extras", extras}}, true);
+      const int node = add_node({{"name", name}, {"mesh", mesh_index}, {"extras", extras}}, true);
+      if (!prop_motion_.empty()) add_prop_motion(p, node);
     }
+  }
+
+  // A moving prop's channels: rotation C^-1 R C and translation C^-1 t per frame (see the header).
+  void add_prop_motion(std::size_t p, int node) {
+    const std::size_t count = props_->meshes.size();
+    bool moves = false;
+    for (int f = 0; f < frames_ && !moves; ++f) {
+      const RigidTransform<double>& m = prop_motion_[f * count + p];
+      moves = !m.rotation.isIdentity(0) || !m.translation.isZero(0);
+    }
+    if (!moves) return;
+    std::vector<float> translations, rotations;
+    translations.reserve(std::size_t(frames_) * 3);
+    rotations.reserve(std::size_t(frames_) * 4);
+    Eigen::Quaterniond previous = Eigen::Quaterniond::Identity();
+    for (int f = 0; f < frames_; ++f) {
+      const RigidTransform<double>& m = prop_motion_[f * count + p];
+      previous = sign_aligned(quaternion_from_matrix(to_gltf() * m.rotation * to_gltf().transpose()).normalized(), previous);
+      append(translations, to_gltf(m.translation));
+      append(rotations, previous);
+    }
+    channel(doc_, animation_, time_accessor_, translations, 3, node, "translation");
+    channel(doc_, animation_, time_accessor_, rotations, 4, node, "rotation");
   }
 
   // The camera's node: rotation C^-1 R_cv^T D and translation C^-1 c per frame (see the header).
@@ -570,6 +601,7 @@ class SceneGlbBuilder {
   const Character* props_;
   std::span<const SceneGlbCamera> cameras_;
   double fps_;
+  std::span<const RigidTransform<double>> prop_motion_;
   int frames_ = -1;
   std::string frames_owner_;
   int time_accessor_ = -1;
@@ -580,8 +612,8 @@ class SceneGlbBuilder {
 }  // namespace
 
 void write_scene_glb(const std::string& path, std::span<const SceneGlbActor> actors, const Character* props,
-                     std::span<const SceneGlbCamera> cameras, double fps) {
-  const std::string glb = SceneGlbBuilder(path, actors, props, cameras, fps).build();
+                     std::span<const SceneGlbCamera> cameras, double fps, std::span<const RigidTransform<double>> prop_motion) {
+  const std::string glb = SceneGlbBuilder(path, actors, props, cameras, fps, prop_motion).build();
   write_file_atomically(path, glb);
 }
 

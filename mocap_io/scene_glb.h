@@ -33,7 +33,11 @@
 // * Per prop mesh (props->meshes, world coordinates) a root node named as the mesh ("prop<k>" if
 //   unnamed), a static mesh (POSITION, NORMAL, indices) in glTF's world, the props' material, and
 //   extras {"odyssey_prop": k, "odyssey_first_vertex": n} (vertices numbered across the props'
-//   meshes, as trajectory files number prop points).
+//   meshes, as trajectory files number prop points). A prop that moves (`prop_motion`: per frame f
+//   and prop k the rigid motion M = [R | t] carrying its mesh as stored to frame f) gets a
+//   translation and a rotation channel: its glTF vertices are g = C^-1 x, moved to C^-1 (R x + t)
+//   = (C^-1 R C) g + C^-1 t, so the node's rotation is C^-1 R C and its translation C^-1 t (the
+//   identity for a prop that never moves, which gets no channel).
 // * Per camera a root node and a perspective camera, both named as the camera, extras
 //   {"odyssey_camera": c} (and, for an ego camera, "odyssey_rides_on" and "odyssey_hides_subtree_of":
 //   SceneGlbCamera).
@@ -81,6 +85,8 @@
 #include <span>
 #include <string>
 
+#include "skeleton/fk.h"
+
 #include "skeleton/camera.h"
 #include "skeleton/character.h"
 #include "skeleton/clip.h"
@@ -109,10 +115,11 @@ struct SceneGlbCamera {
   int hidden_joint = -1;
 };
 
-// `props` may be nullptr (no props); its meshes are in world coordinates and not skinned. Every
-// clip and camera path must have the same frame count; with no actor and no camera the file has
-// no animation.
+// `props` may be nullptr (no props); its meshes are in world coordinates and not skinned.
+// `prop_motion` is empty (no prop moves) or holds [frame * props->meshes.size() + prop]. Every
+// clip, camera path and the props' motion must have the same frame count; with no actor, no
+// camera and no motion the file has no animation.
 void write_scene_glb(const std::string& path, std::span<const SceneGlbActor> actors, const Character* props,
-                     std::span<const SceneGlbCamera> cameras, double fps);
+                     std::span<const SceneGlbCamera> cameras, double fps, std::span<const RigidTransform<double>> prop_motion = {});
 
 }  // namespace odyssey::io

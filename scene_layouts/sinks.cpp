@@ -61,7 +61,8 @@ void SceneGlbSink::finish(const SceneResult& result) {
     const int head = camera.rides_on >= 0 ? result.actors.at(camera.rides_on).motion->head_joint : -1;
     cameras.push_back({camera.name, &camera.path, head >= 0 ? camera.rides_on : -1, head});
   }
-  io::write_scene_glb(staged_, actors, result.props.names.empty() ? nullptr : &result.props.character, cameras, result.fps);
+  io::write_scene_glb(staged_, actors, result.props.names.empty() ? nullptr : &result.props.character, cameras, result.fps,
+                      result.props.motion);
 }
 
 void ActorReportSink::finish(const SceneResult& result) {
