@@ -7,7 +7,13 @@
 
 namespace odyssey::scene {
 
-void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps, bool normals) {
+namespace {
+
+constexpr int kRowsPerBlock = 16;  // rows a worker takes at a time
+
+}  // namespace
+
+void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps, bool normals, skinning::WorkerPool* workers) {
   const DepthBuffer& buffer = *frame.depth;
   if (!buffer.intrinsics()) throw std::invalid_argument("dense maps of a frame that was not rendered");
   const PinholeIntrinsics& k = *buffer.intrinsics();
@@ -25,52 +31,90 @@ void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps, bool
     const Eigen::Vector3d n = (vertices[triangles[t + 1]] - a).cross(vertices[triangles[t + 2]] - a);
     for (int c = 0; c < 3; ++c) vertex_normals[triangles[t + c]] += n;
   }
-  for (Eigen::Vector3d& n : vertex_normals) {
-    if (n.squaredNorm() > 0) n.normalize();
-  }
+  auto normalise = [&](std::size_t first, std::size_t last) {
+    for (std::size_t v = first; v < last; ++v) {
+      if (vertex_normals[v].squaredNorm() > 0) vertex_normals[v].normalize();
+    }
+  };
 
   maps.width = buffer.width();
   maps.height = buffer.height();
   const std::size_t pixels = std::size_t(maps.width) * maps.height;
-  maps.depth.assign(pixels, std::numeric_limits<float>::infinity());
-  maps.normals.assign(normals ? pixels * 3 : 0, 0.0f);
-  maps.instances.assign(pixels, 0);
+  maps.depth.resize(pixels);
+  maps.normals.resize(normals ? pixels * 3 : 0);
+  maps.instances.resize(pixels);
   const Eigen::Matrix3d to_world = frame.pose->rotation.transpose();
-  for (int y = 0; y < maps.height; ++y) {
-    for (int x = 0; x < maps.width; ++x) {
-      const std::uint32_t triangle = buffer.triangle_at(x, y);
-      if (triangle == 0xffffffff) continue;
-      const std::size_t pixel = std::size_t(y) * maps.width + x;
-      maps.depth[pixel] = buffer.depth(x, y);
-      maps.instances[pixel] = static_cast<std::uint16_t>(instance_id(frame.owner(triangle), actors));
-      if (!normals) continue;
-      const std::size_t t = 3 * std::size_t{triangle};
-      const Eigen::Vector3d& a = vertices[triangles[t]];
-      const Eigen::Vector3d& b = vertices[triangles[t + 1]];
-      const Eigen::Vector3d& c = vertices[triangles[t + 2]];
-      const Eigen::Vector3d face = (b - a).cross(c - a);
-      const Eigen::Vector3d ray((x + 0.5 - k.cx) / k.fx, (y + 0.5 - k.cy) / k.fy, 1.0);
-      const double along = face.dot(ray);
-      Eigen::Vector3d normal = face;
-      if (along != 0 && face.squaredNorm() > 0) {
-        // Barycentrics of the ray's hit p: the areas of the sub-triangles opposite each corner.
-        const Eigen::Vector3d p = ray * (face.dot(a) / along);
-        const double area = face.squaredNorm();
-        double w[3] = {(c - b).cross(p - b).dot(face) / area, (a - c).cross(p - c).dot(face) / area, 0};
-        w[0] = std::clamp(w[0], 0.0, 1.0);
-        w[1] = std::clamp(w[1], 0.0, 1.0 - w[0]);
-        w[2] = 1.0 - w[0] - w[1];
-        const Eigen::Vector3d smooth = w[0] * vertex_normals[triangles[t]] + w[1] * vertex_normals[triangles[t + 1]] +
-                                       w[2] * vertex_normals[triangles[t + 2]];
-        if (smooth.squaredNorm() > 0) normal = smooth;
+  auto fill_rows = [&](int first_row, int last_row) {
+    // The owner of the last triangle looked up: neighbouring pixels mostly share their owner, and
+    // the lookup is a binary search over the owners' ranges.
+    std::uint32_t last_triangle = 0xffffffff;
+    int last_instance = 0;
+    std::uint32_t cached = 0xffffffff;
+    const Eigen::Vector3d *a = nullptr, *b = nullptr, *c = nullptr, *na = nullptr, *nb = nullptr, *nc = nullptr;
+    Eigen::Vector3d face = Eigen::Vector3d::Zero();
+    double area = 0, plane = 0;
+    for (int y = first_row; y < last_row; ++y) {
+      for (int x = 0; x < maps.width; ++x) {
+        const std::size_t pixel = std::size_t(y) * maps.width + x;
+        const std::uint32_t triangle = buffer.triangle_at(x, y);
+        if (triangle == 0xffffffff) {
+          maps.depth[pixel] = std::numeric_limits<float>::infinity();
+          maps.instances[pixel] = 0;
+          if (normals) std::fill_n(maps.normals.begin() + 3 * pixel, 3, 0.0f);
+          continue;
+        }
+        if (triangle != last_triangle) {
+          last_triangle = triangle;
+          last_instance = instance_id(frame.owner(triangle), actors);
+        }
+        maps.depth[pixel] = buffer.depth(x, y);
+        maps.instances[pixel] = static_cast<std::uint16_t>(last_instance);
+        if (!normals) continue;
+        std::fill_n(maps.normals.begin() + 3 * pixel, 3, 0.0f);
+        if (triangle != cached) {
+          // What the triangle's pixels share (most neighbouring pixels show the same triangle).
+          cached = triangle;
+          const std::size_t t = 3 * std::size_t{triangle};
+          a = &vertices[triangles[t]], b = &vertices[triangles[t + 1]], c = &vertices[triangles[t + 2]];
+          na = &vertex_normals[triangles[t]], nb = &vertex_normals[triangles[t + 1]], nc = &vertex_normals[triangles[t + 2]];
+          face = (*b - *a).cross(*c - *a);
+          area = face.squaredNorm();
+          plane = face.dot(*a);
+        }
+        const Eigen::Vector3d ray((x + 0.5 - k.cx) / k.fx, (y + 0.5 - k.cy) / k.fy, 1.0);
+        const double along = face.dot(ray);
+        Eigen::Vector3d normal = face;
+        if (along != 0 && area > 0) {
+          // Barycentrics of the ray's hit p: the areas of the sub-triangles opposite each corner.
+          const Eigen::Vector3d p = ray * (plane / along);
+          double w[3] = {(*c - *b).cross(p - *b).dot(face) / area, (*a - *c).cross(p - *c).dot(face) / area, 0};
+          w[0] = std::clamp(w[0], 0.0, 1.0);
+          w[1] = std::clamp(w[1], 0.0, 1.0 - w[0]);
+          w[2] = 1.0 - w[0] - w[1];
+          const Eigen::Vector3d smooth = w[0] * *na + w[1] * *nb + w[2] * *nc;
+          if (smooth.squaredNorm() > 0) normal = smooth;
+        }
+        if (normal.squaredNorm() == 0) continue;
+        // Face the camera (the buffer draws both windings): the normal points against the ray.
+        if (normal.dot(ray) > 0) normal = -normal;
+        const Eigen::Vector3d world = to_world * normal.normalized();
+        for (int i = 0; i < 3; ++i) maps.normals[3 * pixel + i] = static_cast<float>(world(i));
       }
-      if (normal.squaredNorm() == 0) continue;
-      // Face the camera (the buffer draws both windings): the normal points against the ray.
-      if (normal.dot(ray) > 0) normal = -normal;
-      const Eigen::Vector3d world = to_world * normal.normalized();
-      for (int i = 0; i < 3; ++i) maps.normals[3 * pixel + i] = static_cast<float>(world(i));
     }
+  };
+  if (!workers) {
+    normalise(0, vertex_normals.size());
+    fill_rows(0, maps.height);
+    return;
   }
+  constexpr std::size_t kVerticesPerBlock = 4096;
+  workers->run((vertex_normals.size() + kVerticesPerBlock - 1) / kVerticesPerBlock, [&](std::size_t block) {
+    normalise(block * kVerticesPerBlock, std::min(vertex_normals.size(), (block + 1) * kVerticesPerBlock));
+  });
+  workers->run((maps.height + kRowsPerBlock - 1) / kRowsPerBlock, [&](std::size_t block) {
+    const int first = static_cast<int>(block) * kRowsPerBlock;
+    fill_rows(first, std::min(maps.height, first + kRowsPerBlock));
+  });
 }
 
 }  // namespace odyssey::scene

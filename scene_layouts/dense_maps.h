@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "scene_layouts/frame_loop.h"
+#include "skinning/worker_pool.h"
 
 namespace odyssey::scene {
 
@@ -39,7 +40,9 @@ struct DenseMaps {
 
 // Fills `maps` (resized to the frame's image) from the frame's last render; `actors` is the
 // shot's actor count. Normals, the costly part, only when `normals` (else left empty). Reuses the
-// maps' memory from frame to frame.
-void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps, bool normals = true);
+// maps' memory from frame to frame. With `workers`, the rows are filled in blocks spread over
+// them (each pixel is computed the same way whichever thread fills it).
+void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps, bool normals = true,
+                     skinning::WorkerPool* workers = nullptr);
 
 }  // namespace odyssey::scene

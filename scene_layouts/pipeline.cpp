@@ -112,7 +112,8 @@ std::vector<std::unique_ptr<StreamSink>> open_sinks(const Scene& scene, const Sh
     const std::vector<Instance> instances = shot_instances(scene, shot);
     for (std::size_t c = 0; c < shot.cameras.size(); ++c) {
       if (!asked(outputs.sequences, c)) continue;
-      sinks.push_back(std::make_unique<PointOdysseySink>(static_cast<int>(c), outputs.sequences[c], header, outputs.dense, instances, staged));
+      sinks.push_back(std::make_unique<PointOdysseySink>(static_cast<int>(c), outputs.sequences[c], header, outputs.dense, instances,
+                                                          staged, std::max(outputs.threads, 1)));
     }
   }
   for (std::size_t a = 0; a < shot.actors.size(); ++a) {

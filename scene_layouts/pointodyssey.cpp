@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -61,9 +63,10 @@ std::vector<Instance> shot_instances(const Scene& scene, const Shot& shot) {
 }
 
 PointOdysseySink::PointOdysseySink(int camera, const std::string& folder, const io::TrajectoryFileHeader& header,
-                                   const DenseOutputs& dense, std::vector<Instance> instances, io::StagedOutputs& staged)
+                                   const DenseOutputs& dense, std::vector<Instance> instances, io::StagedOutputs& staged,
+                                   int threads)
     : camera_(camera), folder_(folder), dense_(dense), instances_(std::move(instances)), frames_(header.frames),
-      points_(header.points) {
+      points_(header.points), workers_(threads) {
   if (dense_.masks && instances_.size() > 255) {
     throw std::invalid_argument("sequence " + folder + ": " + std::to_string(instances_.size()) +
                                 " instances (actors and props) do not fit 8-bit masks, which hold 255");
@@ -81,34 +84,54 @@ PointOdysseySink::PointOdysseySink(int camera, const std::string& folder, const 
 
 void PointOdysseySink::camera_frame(const CameraFrame& frame) {
   if (frame.camera != camera_ || !dense_.any()) return;
-  fill_dense_maps(frame, actors_, maps_, dense_.normals);
+  fill_dense_maps(frame, actors_, maps_, dense_.normals, &workers_);
   const std::size_t pixels = std::size_t(maps_.width) * maps_.height;
   const auto width = static_cast<std::size_t>(maps_.width), height = static_cast<std::size_t>(maps_.height);
-  if (dense_.depth) {
+  // The three images are encoded side by side, one a thread (each encoder is sequential). The
+  // roundings are to nearest, written as floor(x + 0.5) of non-negative values (std::lround is an
+  // out-of-line call per pixel).
+  auto depth = [&] {
     depth16_.resize(pixels);
     for (std::size_t p = 0; p < pixels; ++p) {
-      const double value = std::round(static_cast<double>(maps_.depth[p]) / 1000.0 * 65535.0);
-      depth16_[p] = static_cast<std::uint16_t>(std::min(value, 65535.0));
+      // metres / 1000 * 65535, clamped to 65535 (+infinity, where no surface, included).
+      depth16_[p] = static_cast<std::uint16_t>(std::min(static_cast<double>(maps_.depth[p]) * 65.535 + 0.5, 65535.0));
     }
     io::write_png_gray16(frame_file(staged_, "depth", frame.frame, "png"), maps_.width, maps_.height, depth16_);
     if (dense_.exact) {
       io::write_npy(frame_file(staged_, "depth", frame.frame, "npy"), io::NpyArray::from_float32(maps_.depth, {height, width}));
     }
-  }
-  if (dense_.normals) {
+  };
+  auto normals = [&] {
     rgb_.resize(pixels * 3);
     for (std::size_t i = 0; i < pixels * 3; ++i) {
-      rgb_[i] = static_cast<std::uint8_t>(std::clamp(std::lround((maps_.normals[i] + 1.0) / 2.0 * 255.0), 0L, 255L));
+      // (n + 1) / 2 * 255 with n in [-1, 1], clamped against rounding.
+      rgb_[i] = static_cast<std::uint8_t>(std::clamp((maps_.normals[i] + 1.0f) * 127.5f + 0.5f, 0.0f, 255.0f));
     }
     io::write_jpeg_rgb(frame_file(staged_, "normal", frame.frame, "jpg"), maps_.width, maps_.height, rgb_);
     if (dense_.exact) {
       io::write_npy(frame_file(staged_, "normal", frame.frame, "npy"),
                     io::NpyArray::from_float32(maps_.normals, {height, width, 3}));
     }
-  }
-  if (dense_.masks) {
+  };
+  auto masks = [&] {
     mask8_.assign(maps_.instances.begin(), maps_.instances.end());
     io::write_png_gray8(frame_file(staged_, "mask", frame.frame, "png"), maps_.width, maps_.height, mask8_);
+  };
+  std::vector<std::function<void()>> images;
+  if (dense_.depth) images.emplace_back(depth);
+  if (dense_.normals) images.emplace_back(normals);
+  if (dense_.masks) images.emplace_back(masks);
+  // The pool's bodies must not throw: a failed write is carried out and rethrown here.
+  std::vector<std::exception_ptr> failures(images.size());
+  workers_.run(images.size(), [&](std::size_t i) {
+    try {
+      images[i]();
+    } catch (...) {
+      failures[i] = std::current_exception();
+    }
+  });
+  for (const std::exception_ptr& failure : failures) {
+    if (failure) std::rethrow_exception(failure);
   }
 }
 

@@ -28,6 +28,7 @@
 #include "mocap_io/output_file.h"
 #include "mocap_io/trajectory_file.h"
 #include "scene_layouts/dense_maps.h"
+#include "skinning/worker_pool.h"
 #include "scene_layouts/frame_loop.h"
 #include "scene_layouts/scene.h"
 #include "scene_layouts/shot.h"
@@ -51,9 +52,11 @@ std::vector<Instance> shot_instances(const Scene& scene, const Shot& shot);
 
 class PointOdysseySink : public StreamSink {
  public:
-  // `folder` the sequence's final path; `dense` which maps to write.
+  // `folder` the sequence's final path; `dense` which maps to write; `threads` (>= 1) the threads
+  // a frame's maps are filled and encoded on (the frame loop waits for camera_frame, so its own
+  // threads are idle meanwhile).
   PointOdysseySink(int camera, const std::string& folder, const io::TrajectoryFileHeader& header,
-                   const DenseOutputs& dense, std::vector<Instance> instances, io::StagedOutputs& staged);
+                   const DenseOutputs& dense, std::vector<Instance> instances, io::StagedOutputs& staged, int threads);
   void camera_frame(const CameraFrame& frame) override;
   void write(const FrameChunk& chunk) override;
   void finish(const SceneResult& result) override;
@@ -68,6 +71,7 @@ class PointOdysseySink : public StreamSink {
   std::size_t frames_, points_;
   std::unique_ptr<io::TrajectoryFileWriter> anno_;
   DenseMaps maps_;
+  skinning::WorkerPool workers_;
   std::vector<std::uint16_t> depth16_;
   std::vector<std::uint8_t> rgb_, mask8_;
 };

@@ -112,8 +112,8 @@ PointVisibility DepthBuffer::classify(const Eigen::Vector3d& point) const {
   const float uf = static_cast<float>(u), vf = static_cast<float>(v);  // within the boxes' slack of u, v
   // A triangle crossing the ray at s P with (1 - s) |P| > reach does so at a depth below
   // P.z (1 - reach / |P|), so one whose nearest point lies at or beyond that is not tested.
-  const float beyond = std::nextafter(static_cast<float>(point.z() * (1 - reach / distance)),
-                                      std::numeric_limits<float>::infinity());
+  // Rounded up (float's relative rounding error is 2^-24), so that no triangle that counts is skipped.
+  const float beyond = static_cast<float>(point.z() * (1 - reach / distance)) * (1 + 0x1p-20f);
   // Boxes first .. last - 1 of `boxes`, kScanBlock at a time: the four comparisons of a block are
   // branch-free (vectorised), and a block with no box holding the point costs no more.
   auto scan = [&](const BoxColumns& boxes, std::size_t first, std::size_t last) {
@@ -199,7 +199,7 @@ void DepthBuffer::render(const CameraPose& pose, const PinholeIntrinsics& k, std
       inverse_depth = std::max(inverse_depth, q.inverse_depth);
     }
     // Rounded towards 0, so that it never exceeds the true nearest depth.
-    const float nearest = clipped ? 0.0f : std::nextafter(static_cast<float>(1 / inverse_depth), 0.0f);
+    const float nearest = clipped ? 0.0f : static_cast<float>(1 / inverse_depth) * (1 - 0x1p-20f);
     u0 -= kBoxSlackPixels, v0 -= kBoxSlackPixels, u1 += kBoxSlackPixels, v1 += kBoxSlackPixels;
     if (!(u1 >= 0 && v1 >= 0 && u0 <= width_ && v0 <= height_)) return;  // also drops NaN
     const auto clamp = [](double x, int size) { return static_cast<float>(std::clamp(x, -1.0, size + 1.0)); };
