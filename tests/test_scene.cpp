@@ -489,6 +489,8 @@ TEST(ScenePipelineTest, ContactSheetShowsTheActorAndItsVisiblePoints) {
   EXPECT_GT(background, rgb.size() / 3 / 2) << "most of each tile is empty floorless space";
 }
 
+// The bundled indoor scene, as `odyssey scene --example` prints it, writes its PointOdyssey
+// sequences (anno.npz, depth, normals, masks per camera) from any folder, the same bytes twice.
 TEST(SceneCliTest, TheExampleRunsFromAnyFolderAndTheHeadCameraSeesTheOtherPerson) {
   const fs::path dir = test_support::scratch_dir("scene_cli");
   const test_support::CliResult example = test_support::run_cli("scene --example");
@@ -497,7 +499,7 @@ TEST(SceneCliTest, TheExampleRunsFromAnyFolderAndTheHeadCameraSeesTheOtherPerson
   const std::string command = "scene " + (dir / "copy.json").string() + " --out ";
   const test_support::CliResult run = test_support::run_cli_in("/", command + (dir / "out").string());
   ASSERT_EQ(run.exit_code, 0) << run.output;
-  const io::NpzReader head((dir / "out" / "trajectories_head.npz").string());
+  const io::NpzReader head((dir / "out" / "indoor_head" / "anno.npz").string());
   const std::vector<std::int64_t> ids = head.load("point_actor_ids").to_int64();
   const std::vector<double> valids = head.load("valids").to_double();
   const std::size_t n = ids.size(), frames = valids.size() / n;
@@ -512,13 +514,16 @@ TEST(SceneCliTest, TheExampleRunsFromAnyFolderAndTheHeadCameraSeesTheOtherPerson
     frames_mostly_valid += valid * 2 > leader;
   }
   EXPECT_GT(frames_mostly_valid * 2, frames) << frames_mostly_valid << " of " << frames;
-  for (const char* name : {"trajectories_orbit.npz", "trajectories_corner.npz", "camera_head.json", "report.json",
-                           "retarget_leader.json", "preview_head.png", "scene.glb"}) {
+  for (const char* name : {"indoor_orbit/anno.npz", "indoor_corner/anno.npz", "indoor_head/depths/depth_00000.png",
+                           "indoor_head/normals/normal_00000.jpg", "indoor_corner/masks/mask_00050.png",
+                           "indoor_orbit/scene_info.json", "camera_head.json", "report.json", "retarget_leader.json",
+                           "preview_head.png", "scene.glb"}) {
     EXPECT_TRUE(fs::exists(dir / "out" / name)) << name;
   }
   const test_support::CliResult again = test_support::run_cli_in("/", command + (dir / "again").string() + " --quiet");
   ASSERT_EQ(again.exit_code, 0) << again.output;
-  for (const char* name : {"trajectories_head.npz", "trajectories_orbit.npz", "camera_orbit.json"}) {
+  for (const char* name : {"indoor_head/anno.npz", "indoor_orbit/anno.npz", "indoor_orbit/depths/depth_00040.png",
+                           "indoor_head/masks/mask_00040.png", "camera_orbit.json"}) {
     std::ifstream a(dir / "out" / name, std::ios::binary), b(dir / "again" / name, std::ios::binary);
     const std::string x((std::istreambuf_iterator<char>(a)), {}), y((std::istreambuf_iterator<char>(b)), {});
     EXPECT_TRUE(x == y) << name << " differs between two runs";
