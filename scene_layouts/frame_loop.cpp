@@ -337,7 +337,7 @@ void FrameLoop::pose(int first, int count) {
       s.boxes[f].max().array() += s.margin;
     }
   }
-  if (moving_props()) {
+  if (moving_props() || (options_.prop_vertices && props_)) {
     // Every prop vertex of every frame of the chunk: a moving prop's carried, x_f = M x_0 in
     // double, then stored as float32 like the rest.
     const std::size_t prop_count = prop_boxes_.size(), floats = prop_vertices_.size();
@@ -590,6 +590,7 @@ FrameChunk FrameLoop::chunk() {
   view.count = count_;
   view.trajs_3d = std::span(trajs_3d_).first(tracking_ ? count * n * 3 : 0);
   view.actor_vertices = actor_vertices_;
+  if (options_.prop_vertices && props_) view.prop_vertices = std::span(prop_frame_vertices_).first(count * prop_vertices_.size());
   view.cameras = camera_chunks_;
   return view;
 }

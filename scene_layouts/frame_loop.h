@@ -101,6 +101,7 @@ struct StreamOptions {
   int chunk_frames = 0;  // frames per chunk; 0: as many as fit in about 16 MiB of output (1 to 256)
   int threads = 1;       // skinning and visibility threads, the caller included
   bool reject_camera_inside = true;
+  bool prop_vertices = false;  // every prop vertex every frame in the chunk (a props point cache)
 };
 
 // One camera's share of a chunk, frame after frame.
@@ -117,6 +118,7 @@ struct FrameChunk {
   int first = 0, count = 0;
   std::span<const float> trajs_3d;                         // C x N x 3
   std::span<const std::span<const float>> actor_vertices;  // per actor: C x V x 3 (mesh_every_frame), else empty
+  std::span<const float> prop_vertices;  // C x Vp x 3, every prop's vertices in order (StreamOptions::prop_vertices), else empty
   std::span<const CameraChunk> cameras;                    // per camera (empty where it does not track)
 };
 

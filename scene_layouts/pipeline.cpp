@@ -82,7 +82,8 @@ void require_replaceable_outputs(const Scene& scene) {
   for (const std::string& path : outputs.point_caches) {
     if (!path.empty() && outputs.rest_objs.empty()) check(obj_beside(path), false);
   }
-  for (const std::string* path : {&outputs.glb, &outputs.scene_glb, &outputs.report}) check(*path, false);
+  if (!outputs.prop_point_cache.empty()) check(obj_beside(outputs.prop_point_cache), false);
+  for (const std::string* path : {&outputs.glb, &outputs.scene_glb, &outputs.report, &outputs.prop_point_cache}) check(*path, false);
   for (const std::string& path : outputs.sequences) check(path, true);
 }
 
@@ -123,6 +124,11 @@ std::vector<std::unique_ptr<StreamSink>> open_sinks(const Scene& scene, const Sh
     sinks.push_back(std::make_unique<PointCacheSink>(static_cast<int>(a), motion.character, motion.source_path, shot.frames,
                                                      outputs.point_caches[a], obj, staged));
   }
+  if (!outputs.prop_point_cache.empty()) {
+    if (shot.props.names.empty()) throw std::invalid_argument("scene outputs: a props point cache asked for, but the scene has no props");
+    sinks.push_back(std::make_unique<PointCacheSink>(-1, shot.props.character, scene.file, shot.frames, outputs.prop_point_cache,
+                                                     obj_beside(outputs.prop_point_cache), staged));
+  }
   for (std::size_t c = 0; c < shot.cameras.size(); ++c) {
     if (asked(outputs.camera_paths, c)) sinks.push_back(std::make_unique<CameraPathSink>(static_cast<int>(c), outputs.camera_paths[c], staged));
   }
@@ -155,7 +161,8 @@ SceneResult run_sinks(Shot shot, const Scene& scene, std::span<const std::unique
   const auto start = Clock::now();
   std::vector<bool> mesh_every_frame(result.actors.size());
   for (std::size_t a = 0; a < result.actors.size(); ++a) mesh_every_frame[a] = asked(outputs.point_caches, a);
-  const bool meshes = std::find(mesh_every_frame.begin(), mesh_every_frame.end(), true) != mesh_every_frame.end();
+  const bool meshes = std::find(mesh_every_frame.begin(), mesh_every_frame.end(), true) != mesh_every_frame.end() ||
+                      !outputs.prop_point_cache.empty();
   if (tracking || meshes) {
     std::vector<bool> tracks(result.cameras.size());
     for (std::size_t c = 0; c < tracks.size(); ++c) {
@@ -166,6 +173,7 @@ SceneResult run_sinks(Shot shot, const Scene& scene, std::span<const std::unique
     StreamOptions options;
     options.chunk_frames = outputs.chunk_frames;
     options.threads = outputs.threads;
+    options.prop_vertices = !outputs.prop_point_cache.empty();
     std::vector<StreamSink*> pointers;
     for (const auto& sink : sinks) pointers.push_back(sink.get());
     const auto on_chunk = [&](int done, int total) {

@@ -218,6 +218,9 @@ struct SceneOutputs {
   std::vector<std::string> previews;       // per camera: a PNG contact sheet (preview.h)
   std::vector<std::string> rest_objs;      // per actor with a point cache; empty: the cache's path with .obj
   std::vector<std::string> actor_reports;  // per actor: its retargeting report (JSON)
+  // Every prop's mesh every frame, where it is (dynamic props move), as PC2 with the props' OBJ as
+  // placed beside it (the same path with .obj): vertices numbered across the props in order.
+  std::string prop_point_cache;
   std::string glb;     // the retargeted actor, with the first camera, as an animated GLB: one actor, no props
   std::string scene_glb;  // the whole scene as one GLB: every actor, prop and camera (mocap_io/scene_glb.h)
   std::string report;  // the scene's report (JSON)
@@ -247,8 +250,9 @@ struct Scene {
   SceneOutputs outputs;
 };
 
-// "DIR/trajectories_<camera>.npz", "DIR/camera_<camera>.json", "DIR/point_cache_<actor>.pc2" and
-// "DIR/report.json" for what `which` asks for.
+// "DIR/trajectories_<camera>.npz", "DIR/camera_<camera>.json", "DIR/point_cache_<actor>.pc2"
+// (and "DIR/props_point_cache.pc2" when the scene has props) and "DIR/report.json" for what
+// `which` asks for.
 // (and "DIR/retarget_<actor>.json")
 struct OutputSelection {
   bool trajectories = true, camera_paths = true, point_caches = false, actor_reports = false, report = true;

@@ -677,6 +677,8 @@ void set_outputs_in_folder(Scene& scene, const std::string& folder, const Output
     if (which.point_caches) out.point_caches.push_back((dir / ("point_cache_" + actor.name + ".pc2")).string());
     if (which.actor_reports) out.actor_reports.push_back((dir / ("retarget_" + actor.name + ".json")).string());
   }
+  const bool props = !scene.props.empty() || (scene.scatter && scene.scatter->count > 0);
+  out.prop_point_cache = which.point_caches && props ? (dir / "props_point_cache.pc2").string() : std::string();
   out.report = which.report ? (dir / "report.json").string() : std::string();
   out.scene_glb = which.glb ? (dir / "scene.glb").string() : std::string();
 }

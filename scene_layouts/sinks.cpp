@@ -33,7 +33,9 @@ PointCacheSink::PointCacheSink(int actor, const Character& character, const std:
   writer_ = std::make_unique<io::Pc2Writer>(staged.stage(path), vertices, frames);
 }
 
-void PointCacheSink::write(const FrameChunk& chunk) { writer_->append_frames(chunk.count, chunk.actor_vertices[actor_]); }
+void PointCacheSink::write(const FrameChunk& chunk) {
+  writer_->append_frames(chunk.count, actor_ >= 0 ? chunk.actor_vertices[actor_] : chunk.prop_vertices);
+}
 
 void PointCacheSink::finish(const SceneResult&) { writer_->close(); }
 

@@ -34,9 +34,10 @@ class TrajectorySink : public StreamSink {
   io::TrajectoryFileWriter writer_;
 };
 
-// The whole mesh of actor `actor` every frame as PC2, with its rest OBJ (which fixes the vertex
-// order) at `obj_path`. Throws io::InputError naming `character_source` when the character has
-// no mesh.
+// The whole mesh of actor `actor` (or, for actor -1, of the props character, where the props are
+// each frame: FrameChunk::prop_vertices) every frame as PC2, with its rest OBJ (which fixes the
+// vertex order) at `obj_path`. Throws io::InputError naming `character_source` when the character
+// has no mesh.
 class PointCacheSink : public StreamSink {
  public:
   PointCacheSink(int actor, const Character& character, const std::string& character_source, std::size_t frames,

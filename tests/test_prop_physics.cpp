@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -180,6 +182,56 @@ TEST(PropPhysicsTest, SameSceneGivesByteIdenticalTrajectoriesOnAnyThreadCount) {
   ASSERT_GT(one.size(), 1000u);
   EXPECT_TRUE(one == again);
   EXPECT_TRUE(one == two);
+}
+
+TEST(PropPhysicsTest, PropsPointCacheHoldsEveryPropWhereItIsEachFrame) {
+  const std::filesystem::path dir = test_support::scratch_dir("PropPhysicsTest");
+  scene::Scene s = shot_with({dynamic_box("box", Eigen::Vector3d(-3, 0, 1), 0.2), dynamic_box("crate", Eigen::Vector3d(2, 2, 0), 0.3)}, 7, 0, 0, 1);
+  s.props.back().dynamics.reset();  // one static prop among them
+  scene::OutputSelection which;
+  which.trajectories = false;
+  which.camera_paths = false;
+  which.report = false;
+  which.point_caches = true;
+  scene::set_outputs_in_folder(s, dir.string(), which);
+  ASSERT_EQ(s.outputs.prop_point_cache, (dir / "props_point_cache.pc2").string());
+  scene::run_scene(s);
+  ASSERT_TRUE(std::filesystem::exists(dir / "props_point_cache.obj"));
+  const std::string pc2 = bytes_of(dir / "props_point_cache.pc2");
+  // Header: 12 bytes of signature, version, V, start, rate, T (32 bytes), then T x V x 3 float32.
+  std::int32_t vertices = 0, samples = 0;
+  std::memcpy(&vertices, pc2.data() + 16, 4);
+  std::memcpy(&samples, pc2.data() + 28, 4);
+  ASSERT_EQ(vertices, 48);  // two boxes of 24 vertices (four a face)
+  ASSERT_EQ(samples, 31);
+  ASSERT_EQ(pc2.size(), 32u + std::size_t(samples) * vertices * 12);
+  // Tracked points interpolate the cached vertices of their triangle: the cache and trajs_3d agree.
+  const scene::Shot shot = scene::prepare_shot(s);
+  const std::vector<Eigen::Vector3f> p = prop_trajectories(shot);
+  const std::size_t points = shot.props.points.size();
+  double worst = 0;
+  for (int f = 0; f < samples; f += 5) {
+    const float* frame = reinterpret_cast<const float*>(pc2.data() + 32) + std::size_t(f) * vertices * 3;
+    for (std::size_t i = 0; i < points; ++i) {
+      const skinning::SurfacePoint& point = shot.props.points[i];
+      const std::size_t first = point.mesh == 0 ? 0 : 24;
+      Eigen::Vector3f q = Eigen::Vector3f::Zero();
+      for (int c = 0; c < 3; ++c) q += point.barycentric[c] * Eigen::Vector3f::Map(frame + 3 * (first + point.vertices[c]));
+      worst = std::max(worst, double((q - p[f * points + i]).norm()));
+    }
+  }
+  EXPECT_LT(worst, 1e-5);
+  // The dropped box fell in the cache (its top corner from 1.2 m to under 0.3 m); the static crate stayed.
+  const float* last = reinterpret_cast<const float*>(pc2.data() + 32) + std::size_t(samples - 1) * vertices * 3;
+  const float* first = reinterpret_cast<const float*>(pc2.data() + 32);
+  float top_first = -1, top_last = -1;
+  for (int v = 0; v < 24; ++v) {
+    top_first = std::max(top_first, first[3 * v + 2]);
+    top_last = std::max(top_last, last[3 * v + 2]);
+  }
+  EXPECT_NEAR(top_first, 1.2, 1e-6);
+  EXPECT_LT(top_last, 0.3);
+  for (int k = 24 * 3; k < 48 * 3; ++k) EXPECT_EQ(first[k], last[k]);
 }
 
 std::string parse_error(const std::string& props) {
