@@ -20,7 +20,7 @@
 namespace odyssey::scene {
 namespace {
 
-// The shortest root path (m) scattered props are put on.
+// How far (m) from its start an actor's root must get for scattered props to go on its path.
 constexpr double kMinimumScatterPath = 1.0;
 
 std::string scene_file(const Scene& scene) { return scene.file.empty() ? std::string("scene") : scene.file; }
@@ -195,15 +195,15 @@ void gather_props(const Scene& scene, const std::vector<PlacedActor>& actors, st
   for (const PlacedActor& actor : actors) {
     const std::vector<Eigen::Vector2d> track = root_track(actor.clip, actor.motion->root_joint);
     request.keep_out.push_back({track.at(0), 0.15 * actor.motion->character.rest_bounds().sizes().z()});
-    // Only paths that go somewhere: an actor walking on the spot (a cycle in place) has its whole
-    // path inside its own keep-out disc.
-    double length = 0;
-    for (std::size_t f = 1; f < track.size(); ++f) length += (track[f] - track[f - 1]).norm();
-    if (length >= kMinimumScatterPath) request.paths.push_back(track);
+    // Only paths that go somewhere: an actor walking on the spot (a cycle in place) sways about
+    // its start, inside its own keep-out disc, however long its wiggling path.
+    double reach = 0;
+    for (const Eigen::Vector2d& at : track) reach = std::max(reach, (at - track[0]).norm());
+    if (reach >= kMinimumScatterPath) request.paths.push_back(track);
   }
   if (scatter.on_paths > 0 && request.paths.empty()) {
-    throw io::InputError(scene_file(scene), "scatter.on_paths: no actor's root travels " + std::to_string(kMinimumScatterPath) +
-                                                " m or more over the shot: there is no path to put props on");
+    throw io::InputError(scene_file(scene), "scatter.on_paths: no actor's root gets " + std::to_string(kMinimumScatterPath) +
+                                                " m or more from its start: there is no path to put props on");
   }
   std::vector<int> chosen(scatter.count);
   for (int k = 0; k < scatter.count; ++k) {

@@ -218,6 +218,7 @@ Shot prepare_shot(const Scene& scene, const PrepareOptions& options, const Progr
   }
   shot.props = build_props(props, geometry);
   simulate_props(scene, props, geometry, shot);
+  shot.prop_specs = std::move(props);
   const Framing framing = frame_actors(shot.actors);
   for (std::size_t c = 0; c < scene.cameras.size(); ++c) {
     const SceneCamera& camera = scene.cameras[c];

@@ -51,7 +51,9 @@ struct Shot {
   std::uint64_t seed = 0;
   std::vector<PlacedActor> actors;
   StreamProps props;                 // every prop as a mesh in world coordinates (mesh k: prop k), with its points and motion
-  // Per prop (the scene's, then the scattered): what a dynamic prop did; empty for a static one.
+  // Per prop (the scene's, then the scattered): its description (a scattered prop's drawn place
+  // and name) and what a dynamic prop did (empty for a static one).
+  std::vector<Prop> prop_specs;
   std::vector<std::optional<physics::PropReport>> prop_reports;
   std::vector<ShotCamera> cameras;
   std::vector<std::string> skipped;  // work not done, one line each
