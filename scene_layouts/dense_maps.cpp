@@ -51,8 +51,8 @@ void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps, bool
     int last_instance = 0;
     std::uint32_t cached = 0xffffffff;
     const Eigen::Vector3d *a = nullptr, *b = nullptr, *c = nullptr, *na = nullptr, *nb = nullptr, *nc = nullptr;
-    Eigen::Vector3d face = Eigen::Vector3d::Zero();
-    double area = 0, plane = 0;
+    Eigen::Vector3d face = Eigen::Vector3d::Zero(), g0 = face, g1 = face;
+    double area = 0, plane = 0, k0 = 0, k1 = 0;
     for (int y = first_row; y < last_row; ++y) {
       for (int x = 0; x < maps.width; ++x) {
         const std::size_t pixel = std::size_t(y) * maps.width + x;
@@ -80,14 +80,19 @@ void fill_dense_maps(const CameraFrame& frame, int actors, DenseMaps& maps, bool
           face = (*b - *a).cross(*c - *a);
           area = face.squaredNorm();
           plane = face.dot(*a);
+          // With (e x q) . F = q . (F x e), the barycentric numerators below become affine in the
+          // ray: (c - b) x (p - b) . F = s (r . g0) - k0 for p = s r, likewise for corner b.
+          g0 = face.cross(*c - *b), k0 = (*c - *b).cross(*b).dot(face);
+          g1 = face.cross(*a - *c), k1 = (*a - *c).cross(*c).dot(face);
         }
         const Eigen::Vector3d ray((x + 0.5 - k.cx) / k.fx, (y + 0.5 - k.cy) / k.fy, 1.0);
         const double along = face.dot(ray);
         Eigen::Vector3d normal = face;
         if (along != 0 && area > 0) {
-          // Barycentrics of the ray's hit p: the areas of the sub-triangles opposite each corner.
-          const Eigen::Vector3d p = ray * (plane / along);
-          double w[3] = {(*c - *b).cross(p - *b).dot(face) / area, (*a - *c).cross(p - *c).dot(face) / area, 0};
+          // Barycentrics of the ray's hit p = s r, s = (F . a) / (F . r): the areas of the
+          // sub-triangles opposite each corner, (c - b) x (p - b) . F / |F|^2 for corner a.
+          const double along_s = plane / along;
+          double w[3] = {(along_s * ray.dot(g0) - k0) / area, (along_s * ray.dot(g1) - k1) / area, 0};
           w[0] = std::clamp(w[0], 0.0, 1.0);
           w[1] = std::clamp(w[1], 0.0, 1.0 - w[0]);
           w[2] = 1.0 - w[0] - w[1];
