@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/npy.h"
 #include "scene_layouts/frame_loop.h"
 #include "scene_layouts/pipeline.h"
 #include "scene_layouts/placement.h"
@@ -232,6 +234,72 @@ TEST(PropPhysicsTest, PropsPointCacheHoldsEveryPropWhereItIsEachFrame) {
   EXPECT_NEAR(top_first, 1.2, 1e-6);
   EXPECT_LT(top_last, 0.3);
   for (int k = 24 * 3; k < 48 * 3; ++k) EXPECT_EQ(first[k], last[k]);
+}
+
+// A minute of an outdoor shot: two walkers and a fox among 30 scattered blocks and crates (6 on the
+// walkers' paths) kicked by seeded forces (0.2 a prop a second, up to 3 m/s, spinning). Bounds:
+// kicks change a prop's velocity by at most 3 m/s and a foot moves at most about 5 m/s, so
+// a prop kicked again while still sliding and spinning stays well under 20 m/s at any point.
+TEST(PropPhysicsTest, AMinuteOfKicksKeepsPropsAboveTheGroundApartAndWithinTheirSpeed) {
+  const std::filesystem::path dir = test_support::scratch_dir("PropPhysicsTest");
+  std::ofstream(dir / "long.json") << R"({
+  "version": 1, "name": "long", "fps": 30, "seconds": 60, "seed": 3,
+  "actors": [
+    {"name": "a", "motion": "data:mocap/cmu_walk_cgspeed.bvh", "bvh_units": "cmu", "character": "data:characters/RiggedFigure.glb",
+     "quality": "fast", "placement": {"x": -3, "y": -2, "yaw": 0}, "points": 0},
+    {"name": "b", "motion": "data:mocap/cmu_walk_cgspeed.bvh", "bvh_units": "cmu", "character": "data:characters/CesiumMan.glb",
+     "quality": "fast", "placement": {"x": 3, "y": 2, "yaw": 180}, "points": 0},
+    {"name": "fox", "character": "data:characters/Fox.glb", "animation": "Walk", "seconds": 60, "scale": 0.01,
+     "placement": {"x": 0, "y": 4, "yaw": 0}, "points": 0}
+  ],
+  "props": [{"name": "field", "type": "ground", "size": [30, 30]}],
+  "scatter": {"count": 30, "on_paths": 6, "region": [-5, -5, 5, 5],
+              "props": [
+                {"name": "brick", "type": "mesh", "path": "data:props/kenney_brick.glb", "scale": 0.3, "dynamic": true, "mass": 2},
+                {"name": "crate", "type": "box", "size": [0.4, 0.3, 0.25], "dynamic": true, "mass": 3, "friction": 0.6}]},
+  "forces": {"rate": 0.2, "speed_change": [0.5, 3], "max_upward": 0.5, "lever_arm": 0.1},
+  "cameras": [{"name": "wide", "type": "static", "position": [0, -14, 5], "target": [0, 0, 0.5]}],
+  "outputs": {"trajectories": true, "camera_paths": false, "report": false, "prop_points": 3000}
+})";
+  scene::SceneFile file = scene::read_scene_file((dir / "long.json").string());
+  scene::set_outputs_in_folder(file.scene, (dir / "out").string(), file.outputs);
+  std::filesystem::create_directories(dir / "out");
+  const scene::SceneResult result = scene::run_scene(file.scene);
+  ASSERT_EQ(result.frames, 1801);
+  int dynamic = 0;
+  double penetration = 0, overlap = 0, top_speed = 0;
+  for (const auto& report : result.prop_reports) {
+    if (!report) continue;
+    ++dynamic;
+    penetration = std::max(penetration, report->deepest_penetration);
+    overlap = std::max(overlap, report->deepest_prop_overlap);
+    top_speed = std::max(top_speed, report->top_speed);
+  }
+  EXPECT_EQ(dynamic, 30);
+  // No prop sinks into the ground or another prop by more than 1 cm at any substep.
+  EXPECT_LT(penetration, 0.01);
+  EXPECT_LT(overlap, 0.01);
+  EXPECT_LT(top_speed, 20.0);
+  // The tracked points: none below z = -1 cm, none moving faster than 20 m/s between two frames.
+  const io::NpzReader npz((dir / "out" / "trajectories_wide.npz").string());
+  const std::vector<float> trajs = npz.load("trajs_3d").to_float();
+  const std::vector<std::int64_t> owner = npz.load("point_actor_ids").to_int64();
+  const std::size_t n = owner.size(), frames = trajs.size() / (3 * n);
+  ASSERT_EQ(frames, 1801u);
+  double lowest = 0, fastest = 0;
+  for (std::size_t f = 0; f < frames; ++f) {
+    for (std::size_t i = 0; i < n; ++i) {
+      if (owner[i] >= -1) continue;  // the field is prop 0 (-1)
+      const Eigen::Vector3f p = Eigen::Vector3f::Map(&trajs[(f * n + i) * 3]);
+      lowest = std::min(lowest, double(p.z()));
+      if (f > 0) fastest = std::max(fastest, 30.0 * (p - Eigen::Vector3f::Map(&trajs[((f - 1) * n + i) * 3])).norm());
+    }
+  }
+  EXPECT_GT(lowest, -0.01);
+  EXPECT_LT(fastest, 20.0);
+  std::printf("60 s, 30 props: deepest penetration %.4f m, prop overlap %.4f m, top speed %.2f m/s, lowest point %.4f m, "
+              "fastest point %.2f m/s, physics %.2f s of %.2f s\n",
+              penetration, overlap, top_speed, lowest, fastest, result.physics_seconds, result.seconds.total);
 }
 
 std::string parse_error(const std::string& props) {
