@@ -247,6 +247,7 @@ FrameLoop::FrameLoop(std::span<const StreamActor> actors, const StreamProps* pro
       }
       if (!m.rotation.isIdentity(0) || !m.translation.isZero(0)) prop_moves_[i % prop_count] = 1;
     }
+    props_move_ = std::any_of(prop_moves_.begin(), prop_moves_.end(), [](char m) { return m != 0; });
     std::size_t first_vertex = 0;
     for (std::size_t m = 0; m < prop_count; ++m) {
       const CharacterMesh& mesh = props->character.meshes[m];
@@ -366,7 +367,7 @@ void FrameLoop::pose(int first, int count) {
   }
 }
 
-bool FrameLoop::moving_props() const { return std::any_of(prop_moves_.begin(), prop_moves_.end(), [](char m) { return m != 0; }); }
+bool FrameLoop::moving_props() const { return props_move_; }
 
 void FrameLoop::skin() {
   const int count = count_;

@@ -207,6 +207,7 @@ class FrameLoop {
   // Moving props: which props move, each prop's first vertex, each point's prop, and per frame of
   // the chunk every prop vertex (C x Vp x 3) and box (C x P).
   std::vector<char> prop_moves_;
+  bool props_move_ = false;  // some prop moves
   std::vector<std::size_t> prop_first_vertex_;
   std::vector<std::uint32_t> prop_point_owner_;
   std::vector<float> prop_frame_vertices_;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <numbers>
 #include <stdexcept>
 
 #include "mocap_io/gltf_character.h"
@@ -25,7 +26,9 @@ constexpr double kMinimumScatterPath = 1.0;
 
 std::string scene_file(const Scene& scene) { return scene.file.empty() ? std::string("scene") : scene.file; }
 
-Eigen::Quaterniond yaw_quaternion(double degrees) { return Eigen::Quaterniond(Eigen::AngleAxisd(degrees * M_PI / 180, Eigen::Vector3d::UnitZ())); }
+Eigen::Quaterniond yaw_quaternion(double degrees) {
+  return Eigen::Quaterniond(Eigen::AngleAxisd(degrees * std::numbers::pi / 180, Eigen::Vector3d::UnitZ()));
+}
 
 // The prop's physics frame and shape: a box about its centre, half its height above `position`;
 // a mesh's hull in the prop's own frame.
@@ -38,7 +41,7 @@ physics::Pose physics_pose(const Prop& prop) {
 }
 
 physics::Shape physics_shape(const Prop& prop, const PropGeometry& geometry) {
-  if (prop.kind == Prop::Kind::box) return physics::Shape::box(prop.scale * prop.size.cwiseProduct(Eigen::Vector3d(0.5, 0.5, 0.5)));
+  if (prop.kind == Prop::Kind::box) return physics::Shape::box(prop.scale * prop.size / 2);
   std::vector<Eigen::Vector3d> points;
   points.reserve(geometry.positions.size());
   for (const Eigen::Vector3d& p : geometry.positions) points.push_back(prop.scale * p);
@@ -222,7 +225,7 @@ void gather_props(const Scene& scene, const std::vector<PlacedActor>& actors, st
     Prop prop = scatter.props[chosen[k]];
     prop.name += "_" + std::to_string(k);
     prop.position = Eigen::Vector3d(placed[k].position.x(), placed[k].position.y(), lift[chosen[k]]);
-    prop.yaw_deg = placed[k].yaw * 180 / M_PI;
+    prop.yaw_deg = placed[k].yaw * 180 / std::numbers::pi;
     props.push_back(std::move(prop));
     geometry.push_back(shapes[chosen[k]]);
   }
