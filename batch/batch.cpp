@@ -126,6 +126,11 @@ std::vector<std::string> job_inputs(const Job& job) {
     for (const scene::Prop& prop : file.scene.props) {
       if (!prop.path.empty()) files.push_back(prop.path);
     }
+    if (file.scene.scatter) {
+      for (const scene::Prop& prop : file.scene.scatter->props) {
+        if (!prop.path.empty()) files.push_back(prop.path);
+      }
+    }
     for (const scene::SceneCamera& camera : file.scene.cameras) {
       if (const auto* rig = std::get_if<scene::FileRig>(&camera.rig)) files.push_back(rig->path);
       if (const auto* rig = std::get_if<scene::ImportedRig>(&camera.rig)) files.push_back(rig->path);

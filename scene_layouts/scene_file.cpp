@@ -634,7 +634,7 @@ SceneFile parse_scene(const std::string& json_text, const std::string& path) {
     if (const auto value = outputs->find("normals")) out.dense.normals = value->boolean();
     if (const auto value = outputs->find("masks")) out.dense.masks = value->boolean();
     if (const auto value = outputs->find("exact_maps")) out.dense.exact = value->boolean();
-    if (out.prop_points > 0 && scene.props.empty()) outputs->member("prop_points").fail("the scene has no props");
+    if (out.prop_points > 0 && scene.props.empty() && !scene.scatter) outputs->member("prop_points").fail("the scene has no props");
     if (which.trajectories && scene.cameras.empty()) outputs->member("trajectories").fail("trajectories need a camera");
   }
   // Trajectories are written by default, for every camera there is.

@@ -269,6 +269,37 @@ TEST(BatchCli, ASceneJobWithAPlayedSourceIsResumed) {
   EXPECT_TRUE(contains(result.output, "1 jobs: 1 done (1 earlier), 0 failed")) << result.output;
 }
 
+TEST(BatchCli, ASceneJobRunsAgainWhenAScatteredPropsMeshChanges) {
+  // Its key hashes the scatter's template meshes like the scene's own props.
+  const fs::path dir = scratch();
+  const auto cube = [](double half) {
+    std::string obj;
+    for (int c = 0; c < 8; ++c) {
+      obj += "v " + std::to_string(c & 1 ? half : -half) + " " + std::to_string(c & 2 ? 2 * half : 0.0) + " " +
+             std::to_string(c & 4 ? half : -half) + "\n";
+    }
+    return obj + "f 1 3 2\nf 2 3 4\nf 5 6 7\nf 6 8 7\nf 1 2 5\nf 2 6 5\nf 3 7 4\nf 4 7 8\nf 1 5 3\nf 3 5 7\nf 2 4 6\nf 4 8 6\n";
+  };
+  write(dir / "cube.obj", cube(0.1));
+  write(dir / "kick.json", R"({"version": 1, "name": "kick", "seconds": 1, "actors": [{"name": "walker", "motion": ")" +
+                               std::string(ODYSSEY_DATA_DIR) + R"(/mocap/cmu_walk_cgspeed.bvh", "bvh_units": "cmu", "character": ")" +
+                               std::string(ODYSSEY_DATA_DIR) + R"(/characters/RiggedFigure.glb", "quality": "fast"}],
+      "scatter": {"count": 3, "props": [{"type": "mesh", "path": "cube.obj", "dynamic": true}]},
+      "cameras": [{"type": "orbit", "width": 160, "height": 90}], "outputs": {"points_per_actor": 100, "prop_points": 100}})");
+  write(dir / "jobs.csv", "scene\nkick.json\n");
+  const fs::path out = dir / "out";
+  const std::string arguments = "batch --manifest " + quoted(dir / "jobs.csv") + " --out " + quoted(out);
+  auto result = run_cli(arguments);
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  result = run_cli(arguments);
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_TRUE(contains(result.output, "1 jobs: 1 done (1 earlier), 0 failed")) << result.output;
+  write(dir / "cube.obj", cube(0.12));
+  result = run_cli(arguments);
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_TRUE(contains(result.output, "1 jobs: 1 done (0 earlier), 0 failed")) << result.output;
+}
+
 TEST(BatchCli, BadListsShardsManifestsAndAnotherBatchsFolderAreRefusedInOneLine) {
   const fs::path dir = scratch();
   const Inputs inputs = make_inputs(dir);
