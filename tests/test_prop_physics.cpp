@@ -385,6 +385,11 @@ TEST(PropPhysicsTest, ScenesThatCannotBeSimulatedNameTheJsonPath) {
   s.file = "shot.json";
   EXPECT_TRUE(contains(test_support::message_of<io::InputError>([&] { scene::prepare_shot(s); }),
                        "shot.json: props[1]: a dynamic mesh needs a volume for its convex hull"));
+  // A scene built in code skips the file's checks; the physics model's own name the prop's path.
+  scene::Scene heavy = shot_with({dynamic_box("box", Eigen::Vector3d(-3, 0, 0), 0.2), dynamic_box("light", Eigen::Vector3d(3, 0, 0), 0.2)}, 0, 0, 0, 1);
+  heavy.file = "shot.json";
+  heavy.props[1].dynamics->mass = -1;
+  EXPECT_TRUE(contains(test_support::message_of<io::InputError>([&] { scene::prepare_shot(heavy); }), "shot.json: props[1]: mass"));
   // Thirty 1 m crates cannot fit a 2 m square.
   scene::Scene crowded = shot_with({}, 0, 0, 0, 1);
   crowded.file = "shot.json";
