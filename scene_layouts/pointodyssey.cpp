@@ -184,7 +184,9 @@ void PointOdysseySink::finish(const SceneResult& result) {
                    {"depths", dense_.depth ? nlohmann::ordered_json("depths/depth_%05d.png") : nlohmann::ordered_json()},
                    {"normals", dense_.normals ? nlohmann::ordered_json("normals/normal_%05d.jpg") : nlohmann::ordered_json()},
                    {"masks", dense_.masks ? nlohmann::ordered_json("masks/mask_%05d.png") : nlohmann::ordered_json()},
-                   {"exact", dense_.exact}};
+                   {"exact", dense_.exact},
+                   // Not written here: `odyssey render` adds them, from the GLB beside the folder.
+                   {"rgbs", "rgbs/rgb_%05d.jpg, once odyssey render has run on this folder"}};
   json["instances"] = nlohmann::ordered_json::array();
   for (const Instance& instance : instances_) {
     json["instances"].push_back({{"id", instance.id},

@@ -106,7 +106,7 @@ PointVisibility DepthBuffer::classify(const Eigen::Vector3d& point) const {
   // binned in the fine and the coarse tile holding it, and the large ones. The occluder named is
   // the nearest (smallest s).
   const double distance = point.norm();
-  const double reach = std::max(kRelativeDepthTolerance * distance, kAbsoluteDepthTolerance);
+  const double reach = kRelativeDepthTolerance * distance;
   double nearest = std::numeric_limits<double>::infinity();
   std::uint32_t occluder = kNoTriangle;
   const float uf = static_cast<float>(u), vf = static_cast<float>(v);  // within the boxes' slack of u, v

@@ -54,7 +54,7 @@
 // 1/64 px) holds (u, v). The test casts the ray against exactly those triangles:
 //   hidden  <=>  some triangle whose box holds (u, v) meets the ray at s P with s > 0 and
 //                (1 - s) |P| > reach,
-//   reach = max(kRelativeDepthTolerance |P|, kAbsoluteDepthTolerance) = max(1e-4 |P|, 1 mm),
+//   reach = kRelativeDepthTolerance |P| = 1e-4 |P|,
 // with s from Moller-Trumbore in double on the kept camera-space vertices, each triangle grown by
 // 1e-9 in barycentric units so that a ray through a shared edge or vertex cannot slip between the
 // triangles holding it by rounding (see ray_parameter in visibility.cpp). The occluder named is the
@@ -75,11 +75,13 @@
 // against (any crossing that counts lies nearer than that), which skips the point's own surface
 // and everything behind it.
 // Why the reach: the point and the mesh are skinned in float32, so P lies off its own triangle's
-// plane by ~1e-7 of its coordinates (~1 um), which the ray turns into up to that / cos(incidence)
-// along it; 1 mm covers incidence to within 0.06 degree of grazing at metre scales, and 1e-4 |P|
-// keeps the same margin for distant scenes whose coordinates are large. The price: an occluder less
-// than the reach in front of the point does not hide it (1 mm, against a pixel footprint of about
-// 8 mm at 5 m); surfaces that close are in contact, not occluding.
+// plane by ~6e-8 of its coordinates, which the ray turns into up to that / cos(incidence) along
+// it; 1e-4 |P| covers incidence to within 0.03 degree of grazing when the coordinates are of the
+// size of |P| (a camera near the scene), and to within a degree when they are 30 times larger.
+// The price: an occluder less than the reach in front of the point does not hide it (0.5 mm at
+// 5 m, against a pixel footprint of about 8 mm there); surfaces that close are in contact, not
+// occluding. The reach is relative only, so a scene scaled as a whole (character, props and
+// camera) is judged the same at every scale: a 1 cm character as a 100 m one.
 // Known limit: a surface crossing the ray less than kNearDepth from the camera centre (closer than
 // the near plane) does not hide the point, as it is not drawn either.
 // Points outside the image, behind the camera (z <= 0) or not finite are not visible.
@@ -112,7 +114,6 @@ class DepthBuffer {
  public:
   static constexpr double kNearDepth = 1e-3;               // metres; the clipping plane z = near
   static constexpr double kRelativeDepthTolerance = 1e-4;  // see "Visibility" above
-  static constexpr double kAbsoluteDepthTolerance = 1e-3;  // metres; likewise
 
   // Throws std::invalid_argument when width or height < 1, or the image is too large to index.
   DepthBuffer(int width, int height);

@@ -230,7 +230,7 @@ std::vector<Triangle> scene_triangles(const scene::SceneResult& result, int fram
   return triangles;
 }
 
-// The owner of the nearest triangle crossing the segment from `from` to `to` more than 1 mm
+// The owner of the nearest triangle crossing the segment from `from` to `to` more than 1e-4 of its length
 // before `to` (Moller-Trumbore), or none.
 std::optional<int> first_hit(const std::vector<Triangle>& triangles, const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
   const Eigen::Vector3d ray = to - from;
@@ -246,7 +246,7 @@ std::optional<int> first_hit(const std::vector<Triangle>& triangles, const Eigen
     const Eigen::Vector3d qv = tv.cross(e1);
     const double v = ray.dot(qv) / det;
     const double s = e2.dot(qv) / det;
-    if (u >= 0 && v >= 0 && u + v <= 1 && s > 0 && (1 - s) * ray.norm() > 1e-3 && s < nearest) {
+    if (u >= 0 && v >= 0 && u + v <= 1 && s > 0 && s < 1 - 1e-4 && s < nearest) {
       nearest = s;
       owner = t.owner;
     }
