@@ -40,8 +40,48 @@ physics::Pose physics_pose(const Prop& prop) {
   return pose;
 }
 
+// The connected pieces of a mesh, each as its scaled points: vertices are joined by the triangles
+// they share and by equal positions (a file splits a vertex where its normals or UVs differ, not
+// where the surface does). Vertices on no triangle belong to no piece.
+std::vector<std::vector<Eigen::Vector3d>> mesh_pieces(const Prop& prop, const PropGeometry& geometry) {
+  const std::size_t count = geometry.positions.size();
+  std::vector<std::size_t> parent(count);
+  for (std::size_t v = 0; v < count; ++v) parent[v] = v;
+  const auto root = [&](std::size_t v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  const auto join = [&](std::size_t a, std::size_t b) {
+    a = root(a), b = root(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  };
+  std::map<std::array<double, 3>, std::size_t> first_at;
+  for (std::size_t v = 0; v < count; ++v) {
+    const Eigen::Vector3d& p = geometry.positions[v];
+    const auto [slot, added] = first_at.try_emplace({p.x(), p.y(), p.z()}, v);
+    if (!added) join(slot->second, v);
+  }
+  std::vector<char> used(count, 0);
+  for (std::size_t t = 0; t + 2 < geometry.triangles.size(); t += 3) {
+    join(geometry.triangles[t], geometry.triangles[t + 1]);
+    join(geometry.triangles[t], geometry.triangles[t + 2]);
+    for (int c = 0; c < 3; ++c) used[geometry.triangles[t + c]] = 1;
+  }
+  // Pieces in the order of their first vertex, so the shape does not depend on a map's order.
+  std::map<std::size_t, std::size_t> piece_of_root;
+  std::vector<std::vector<Eigen::Vector3d>> pieces;
+  for (std::size_t v = 0; v < count; ++v) {
+    if (!used[v]) continue;
+    const auto [slot, added] = piece_of_root.try_emplace(root(v), pieces.size());
+    if (added) pieces.emplace_back();
+    pieces[slot->second].push_back(prop.scale * geometry.positions[v]);
+  }
+  return pieces;
+}
+
 physics::Shape physics_shape(const Prop& prop, const PropGeometry& geometry) {
   if (prop.kind == Prop::Kind::box) return physics::Shape::box(prop.scale * prop.size / 2);
+  if (prop.dynamics && prop.dynamics->pieces) return physics::Shape::compound(mesh_pieces(prop, geometry));
   std::vector<Eigen::Vector3d> points;
   points.reserve(geometry.positions.size());
   for (const Eigen::Vector3d& p : geometry.positions) points.push_back(prop.scale * p);
@@ -273,7 +313,18 @@ void simulate_props(const Scene& scene, const std::vector<Prop>& props, const st
     }
     const Prop::Dynamics& d = *prop.dynamics;
     physics::DynamicProp body;
-    if (prop.kind == Prop::Kind::mesh) {
+    if (prop.kind == Prop::Kind::mesh && d.pieces) {
+      // Each piece's hull checked here, so the error names the prop's JSON path.
+      const std::vector<std::vector<Eigen::Vector3d>> pieces = mesh_pieces(prop, geometry[k]);
+      for (std::size_t p = 0; p < pieces.size(); ++p) {
+        try {
+          physics::convex_hull(pieces[p]);
+        } catch (const std::invalid_argument& error) {
+          fail(k, "collision pieces: piece " + std::to_string(p) + " of " + std::to_string(pieces.size()) +
+                      " has no volume for its convex hull: " + error.what());
+        }
+      }
+    } else if (prop.kind == Prop::Kind::mesh) {
       // The hull's own check, here so the error names the prop's JSON path.
       std::vector<Eigen::Vector3d> points;
       for (const Eigen::Vector3d& p : geometry[k].positions) points.push_back(prop.scale * p);

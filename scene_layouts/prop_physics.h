@@ -4,7 +4,9 @@
 // Geometry. A prop's shape lives in its own frame: the vertices as the file (or the box) gives
 // them, scaled; the prop's frame in the world is (position, yaw about z). A box collides as a box
 // (its bottom face on `position`, so its physics frame sits half its height above), a mesh as the
-// convex hull of its scaled vertices. Static boxes collide as boxes, static meshes as their
+// convex hull of its scaled vertices, or, asked for (Prop::Dynamics::pieces), as the union of the
+// hulls of its connected pieces (vertices joined by shared triangles and equal positions: a
+// table's top and legs modelled apart leave room under it). Static boxes collide as boxes, static meshes as their
 // triangles; a ground prop adds nothing: the ground is the infinite plane z = 0 in every physics
 // scene (a ground's extent is no edge to fall off).
 //

@@ -85,6 +85,8 @@ struct Prop {
     double restitution = 0.5;  // [0, 1]; likewise
     Eigen::Vector3d velocity = Eigen::Vector3d::Zero();          // m/s at t = 0, of the prop's origin
     Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  // rad/s at t = 0, world axes
+    // A mesh collides as the union of its connected pieces' hulls, not as one hull.
+    bool pieces = false;
   };
   std::optional<Dynamics> dynamics;
 };

@@ -232,7 +232,7 @@ SceneActor read_actor(const JsonValue& item, std::size_t index, const fs::path& 
 void read_dynamics(const JsonValue& item, const std::string& kind, Prop& prop) {
   const bool dynamic = item.find("dynamic") && item.member("dynamic").boolean();
   if (!dynamic) {
-    for (const char* key : {"mass", "friction", "restitution", "velocity", "angular_velocity"}) {
+    for (const char* key : {"mass", "friction", "restitution", "velocity", "angular_velocity", "collision"}) {
       if (const auto value = item.find(key)) value->fail("only a dynamic prop (\"dynamic\": true) takes this key");
     }
     return;
@@ -253,6 +253,12 @@ void read_dynamics(const JsonValue& item, const std::string& kind, Prop& prop) {
   };
   if (const auto value = item.find("velocity")) d.velocity = bounded(*value, 1e3, "m/s");
   if (const auto value = item.find("angular_velocity")) d.angular_velocity = bounded(*value, 1e3, "rad/s");
+  if (const auto value = item.find("collision")) {
+    const std::string shape = value->string();
+    if (kind != "mesh") value->fail("only a mesh chooses its collision shape (a box collides as a box)");
+    if (shape != "hull" && shape != "pieces") value->fail("expected hull or pieces");
+    d.pieces = shape == "pieces";
+  }
 }
 
 // A region [x_min, y_min, x_max, y_max] of the ground.
@@ -308,7 +314,7 @@ SceneScatter read_scatter(const JsonValue& item, const fs::path& base) {
 
 Prop read_prop(const JsonValue& item, std::size_t index, const fs::path& base) {
   item.allow_only({"name", "type", "size", "path", "up", "position", "yaw", "scale", "category", "dynamic", "mass", "friction",
-                   "restitution", "velocity", "angular_velocity"});
+                   "restitution", "velocity", "angular_velocity", "collision"});
   Prop prop;
   prop.name = name_of(item, "prop" + std::to_string(index));
   const JsonValue type = item.member("type");

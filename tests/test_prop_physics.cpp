@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdio>
 #include <cmath>
 #include <cstdint>
@@ -188,6 +189,58 @@ TEST(PropPhysicsTest, AVertexAnimatedActorPassesThroughPropsAndTheShotSaysSo) {
   EXPECT_LT(most, 1e-4);
 }
 
+// An OBJ (Z up) of axis-aligned boxes, each a separate piece: (min, max) corners.
+std::string boxes_obj(const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>& boxes) {
+  std::string obj;
+  int first = 1;
+  for (const auto& [low, high] : boxes) {
+    for (int c = 0; c < 8; ++c) {
+      obj += "v " + std::to_string(c & 1 ? high.x() : low.x()) + " " + std::to_string(c & 2 ? high.y() : low.y()) + " " +
+             std::to_string(c & 4 ? high.z() : low.z()) + "\n";
+    }
+    for (const auto& f : std::vector<std::array<int, 3>>{{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                                                         {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}}) {
+      obj += "f " + std::to_string(first + f[0]) + " " + std::to_string(first + f[1]) + " " + std::to_string(first + f[2]) + "\n";
+    }
+    first += 8;
+  }
+  return obj;
+}
+
+// A table of five pieces (a top on four legs) colliding as pieces leaves room under it: a crate
+// standing there at the start stays put and the table stays on its legs. As one hull the same
+// table would hold the crate inside its solid, and the crate is thrown out.
+TEST(PropPhysicsTest, AMeshCollidingAsPiecesLeavesRoomBetweenThem) {
+  const std::filesystem::path dir = test_support::scratch_dir("PropPhysicsTest");
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> table = {{{-0.5, -0.3, 0.7}, {0.5, 0.3, 0.75}}};
+  for (const double x : {-0.45, 0.4}) {
+    for (const double y : {-0.25, 0.2}) table.push_back({{x, y, 0.0}, {x + 0.05, y + 0.05, 0.7}});
+  }
+  std::ofstream(dir / "table.obj") << boxes_obj(table);
+  const auto run = [&](const std::string& collision) {
+    scene::Prop top;
+    top.name = "table";
+    top.kind = scene::Prop::Kind::mesh;
+    top.path = (dir / "table.obj").string();
+    top.up_z = true;
+    top.position = Eigen::Vector3d(-3, 0, 0.002);
+    top.dynamics.emplace();
+    top.dynamics->mass = 10;
+    top.dynamics->pieces = collision == "pieces";
+    const scene::Shot shot = scene::prepare_shot(shot_with({top, dynamic_box("crate", Eigen::Vector3d(-3, 0, 0), 0.3)}, 7, 0, 0, 1));
+    const physics::PropReport& crate = *shot.prop_reports.at(1);
+    const physics::PropReport& board = *shot.prop_reports.at(0);
+    return std::make_pair(crate.path_length, board.path_length);
+  };
+  const auto [crate_moved, table_moved] = run("pieces");
+  EXPECT_LT(crate_moved, 0.001);
+  EXPECT_LT(table_moved, 0.005);
+  const auto [crate_thrown, table_thrown] = run("hull");
+  EXPECT_GT(crate_thrown + table_thrown, 0.05);
+  std::printf("pieces: crate moved %.2g m, table %.2g m; one hull: crate %.3g m, table %.3g m\n", crate_moved, table_moved,
+              crate_thrown, table_thrown);
+}
+
 std::string bytes_of(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   std::stringstream text;
@@ -358,6 +411,10 @@ TEST(PropPhysicsTest, BadDynamicKeysNameTheFileAndTheJsonPath) {
                        "shot.json: props[0].dynamic: a ground cannot be dynamic"));
   EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1], "dynamic": true, "restitution": 2}])"),
                        "shot.json: props[0].restitution:"));
+  EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1], "dynamic": true, "collision": "pieces"}])"),
+                       "shot.json: props[0].collision: only a mesh chooses its collision shape"));
+  EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "mesh", "path": "t.obj", "dynamic": true, "collision": "parts"}])"),
+                       "shot.json: props[0].collision: expected hull or pieces"));
   EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1]}], "forces": {"count": 1})"),
                        "shot.json: forces: no dynamic prop for the forces to act on"));
   EXPECT_TRUE(contains(parse_error(R"("props": [{"type": "box", "size": [1, 1, 1], "dynamic": true}], "forces": {"count": 1, "rate": 2})"),
