@@ -158,6 +158,9 @@ std::map<long long, ColmapCamera> read_colmap_cameras(const std::string& path) {
     const double fx = p[0], fy = model->second.one_focal ? p[0] : p[1];
     const std::size_t principal = model->second.one_focal ? 1 : 2;
     if (!(fx > 0 && fy > 0)) line.fail("focal length " + std::string(f[fx > 0 ? 5 : 4]) + " is not positive");
+    if (const std::string problem = intrinsics_problem(fx, fy, p[principal], p[principal + 1], double(width), double(height));
+        !problem.empty())
+      line.fail("camera " + std::to_string(id) + ": " + problem);
     camera.fx = fx / double(width);
     camera.fy = fy / double(height);
     camera.cx = p[principal] / double(width);
@@ -204,6 +207,10 @@ CameraTrack read_realestate10k(const std::string& path) {
     frame.cy = v[4];
     if (!(frame.fx > 0 && frame.fy > 0)) {
       line.fail("focal length " + std::string(f[frame.fx > 0 ? 2 : 1]) + " is not positive");
+    }
+    // RealEstate10K's intrinsics are normalised by the image size.
+    if (const std::string problem = intrinsics_problem(frame.fx, frame.fy, frame.cx, frame.cy, 1, 1); !problem.empty()) {
+      line.fail("normalised intrinsics: " + problem);
     }
     Eigen::Matrix3d r;
     for (int row = 0; row < 3; ++row) {

@@ -3,8 +3,10 @@
 #include <Eigen/Geometry>  // cross(); camera.h has only Eigen/Core, which declares it without a definition
 #include <Eigen/LU>        // determinant(), likewise
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <stdexcept>
+#include <tuple>
 
 namespace odyssey {
 
@@ -16,6 +18,30 @@ Eigen::Matrix3d PinholeIntrinsics::matrix() const {
 
 double PinholeIntrinsics::horizontal_fov_deg() const {
   return 2 * std::atan(width / (2 * fx)) * 180 / std::numbers::pi;
+}
+
+std::string intrinsics_problem(double fx, double fy, double cx, double cy, double width, double height) {
+  const auto fov = [](double focal, double size) { return 2 * std::atan(size / (2 * focal)) * 180 / std::numbers::pi; };
+  const auto number = [](double value) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.6g", value);
+    return std::string(text);
+  };
+  for (const auto& [name, focal, size] : {std::tuple{"fx", fx, width}, std::tuple{"fy", fy, height}}) {
+    if (!(focal > 0) || !std::isfinite(focal)) return std::string(name) + " = " + number(focal) + " is not a positive number";
+    const double degrees = fov(focal, size);
+    if (!(degrees >= kMinFovDeg && degrees <= kMaxFovDeg)) {
+      return std::string(name) + " = " + number(focal) + " gives a field of view of " + number(degrees) + " degrees, outside " +
+             number(kMinFovDeg) + " to " + number(kMaxFovDeg);
+    }
+  }
+  for (const auto& [name, centre, size] : {std::tuple{"cx", cx, width}, std::tuple{"cy", cy, height}}) {
+    if (!(centre >= -size && centre <= 2 * size)) {
+      return std::string(name) + " = " + number(centre) + " lies more than one image size (" + number(size) +
+             ") outside the image";
+    }
+  }
+  return "";
 }
 
 PinholeIntrinsics intrinsics_from_hfov(int width, int height, double hfov_deg) {
@@ -98,6 +124,9 @@ void CameraPath::validate() const {
     if (!(k.fx > 0 && k.fy > 0) || !std::isfinite(k.fx) || !std::isfinite(k.fy) || !std::isfinite(k.cx) ||
         !std::isfinite(k.cy) || k.width < 1 || k.height < 1) {
       throw std::invalid_argument(at + "intrinsics must be positive and finite");
+    }
+    if (const std::string problem = intrinsics_problem(k.fx, k.fy, k.cx, k.cy, k.width, k.height); !problem.empty()) {
+      throw std::invalid_argument(at + "intrinsics: " + problem);
     }
   }
 }

@@ -32,6 +32,15 @@ struct PinholeIntrinsics {
 // Throws std::invalid_argument when width or height < 1 or hfov_deg is not in (0, 180).
 PinholeIntrinsics intrinsics_from_hfov(int width, int height, double hfov_deg);
 
+// The range every camera source is held to, whatever its file says: a field of view of
+// kMinFovDeg to kMaxFovDeg along each axis, that is fx in [w / (2 tan(kMaxFovDeg / 2)),
+// w / (2 tan(kMinFovDeg / 2))] (0.0087 w to 5730 w) and fy likewise with h, and the principal
+// point within one image size of the image, cx in [-w, 2w] and cy in [-h, 2h]. Values outside are
+// a unit mistake or a damaged file, not a lens. Returns what is out of range ("" when nothing),
+// for intrinsics in pixels of a w x h image or, with w = h = 1, normalised by the image size.
+inline constexpr double kMinFovDeg = 0.01, kMaxFovDeg = 179;
+std::string intrinsics_problem(double fx, double fy, double cx, double cy, double width, double height);
+
 struct CameraPose {
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // R: world -> camera axes
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();   // t
@@ -74,7 +83,8 @@ struct CameraPath {
   int frame_count() const { return static_cast<int>(poses.size()); }
   // Throws std::invalid_argument naming the frame when the two lists differ in length, a pose has
   // a non-finite value or a rotation that is not orthonormal with determinant +1 (within 1e-6), or
-  // intrinsics are not positive and finite; and when fps is not positive.
+  // intrinsics are not positive and finite or out of intrinsics_problem's range; and when fps is
+  // not positive.
   void validate() const;
 };
 
