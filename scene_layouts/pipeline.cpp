@@ -110,7 +110,7 @@ std::vector<std::unique_ptr<StreamSink>> open_sinks(const Scene& scene, const Sh
       if (!asked(outputs.trajectories, c)) continue;
       sinks.push_back(std::make_unique<TrajectorySink>(static_cast<int>(c), outputs.trajectories[c], header, outputs.compress, staged));
     }
-    const std::vector<Instance> instances = shot_instances(scene, shot);
+    const std::vector<Instance> instances = shot_instances(shot);
     for (std::size_t c = 0; c < shot.cameras.size(); ++c) {
       if (!asked(outputs.sequences, c)) continue;
       sinks.push_back(std::make_unique<PointOdysseySink>(static_cast<int>(c), outputs.sequences[c], header, outputs.dense, instances,

@@ -37,7 +37,7 @@ const char* category_name(PropCategory category) {
 
 }  // namespace
 
-std::vector<Instance> shot_instances(const Scene& scene, const Shot& shot) {
+std::vector<Instance> shot_instances(const Shot& shot) {
   std::vector<Instance> instances;
   for (std::size_t a = 0; a < shot.actors.size(); ++a) {
     const ActorMotion& motion = *shot.actors[a].motion;
@@ -50,7 +50,7 @@ std::vector<Instance> shot_instances(const Scene& scene, const Shot& shot) {
     instance.source = motion.source_path;
     instances.push_back(instance);
   }
-  for (const Prop& prop : scene.props) {
+  for (const Prop& prop : shot.prop_specs) {  // the scene's props, then the scattered ones
     Instance instance;
     instance.id = static_cast<int>(instances.size()) + 1;
     instance.name = prop.name;

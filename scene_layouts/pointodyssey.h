@@ -48,7 +48,7 @@ struct Instance {
 // a retargeted motion are human, a character's own animation human when its rig has a humanoid
 // bone map (a head and wrists found), else animal, a vertex-animated mesh animal; a ground prop is
 // ground, a box or mesh prop its `category` in the scene (default prop).
-std::vector<Instance> shot_instances(const Scene& scene, const Shot& shot);
+std::vector<Instance> shot_instances(const Shot& shot);
 
 class PointOdysseySink : public StreamSink {
  public:
