@@ -10,7 +10,8 @@
 // camera: the shares within 1e-3 relative depth, within 1 degree, and of the same instance.
 //
 // Render: rgbs/ of a few frames at half size, read by PIL; a rerun of another range replaces it
-// whole; a Blender that fails on a broken scene.glb leaves the earlier rgbs/ as it was.
+// whole; a Blender that fails on a broken scene.glb leaves the earlier rgbs/ as it was; two frames
+// of the bundled indoor example's head camera.
 //
 // Skipped only when blender is not installed.
 #include <gtest/gtest.h>
@@ -169,6 +170,23 @@ TEST(RenderBlenderTest, RenderWritesEveryAskedFrameAndReplacesRgbsWholeOnlyOnSuc
   EXPECT_EQ(test_support::files_in(seq / "rgbs"), std::vector<std::string>{"rgb_00030.jpg"});
   for (const auto& entry : fs::directory_iterator(seq)) {
     EXPECT_FALSE(contains(entry.path().filename().string(), "partial")) << "left behind: " << entry.path();
+  }
+}
+
+// The bundled indoor example, as a user runs it, and two frames of its head camera rendered small:
+// the sequence holds rgbs/ beside its maps, one JPEG a frame at the asked size.
+TEST(RenderBlenderTest, TheIndoorExampleRendersFromItsSequence) {
+  if (!have_blender()) GTEST_SKIP() << "blender is not installed (scripts/install-deps.sh installs Debian's blender)";
+  const fs::path out = test_support::scratch_dir("render_blender") / "indoor";
+  const test_support::CliResult scene = test_support::run_cli("scene " + kData + "/scenes/indoor.json --out " + out.string() + " --quiet");
+  ASSERT_EQ(scene.exit_code, 0) << scene.output;
+  const fs::path seq = out / "indoor_head";
+  const test_support::CliResult run = test_support::run_cli("render " + seq.string() + " --samples 2 --scale 0.125 --frames 40:42");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_TRUE(contains(run.output, "2 frames at 120x68")) << run.output;
+  EXPECT_EQ(test_support::files_in(seq / "rgbs"), (std::vector<std::string>{"rgb_00040.jpg", "rgb_00041.jpg"}));
+  for (const char* kept : {"anno.npz", "depths/depth_00040.png", "masks/mask_00041.png", "normals/normal_00040.jpg"}) {
+    EXPECT_TRUE(fs::exists(seq / kept)) << kept;
   }
 }
 
