@@ -191,7 +191,10 @@ void subdivide_once(Primitive& p) {
           }
         }
       }
-      std::ranges::sort(merged, [](const auto& x, const auto& y) { return x.first != y.first ? x.first > y.first : x.second < y.second; });
+      // Largest first; equal weights keep the order met (a's influences, then b's), so a midpoint of
+      // two vertices that list a tie alike lists it alike, and readers that take the first of equal
+      // weights as the vertex's main joint take the same one for it.
+      std::ranges::stable_sort(merged, [](const auto& x, const auto& y) { return x.first > y.first; });
       merged.resize(std::min(merged.size(), 4 * sets));
       double total = 0;
       for (const auto& m : merged) total += m.first;

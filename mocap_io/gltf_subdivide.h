@@ -13,7 +13,8 @@
 // A midpoint's attributes are its ends' means: positions, texture coordinates, colours, tangents
 // and morph-target displacements averaged; normals averaged then renormalised. Its skin is the
 // ends' influences merged, joint by joint, w = (w_a(j) + w_b(j)) / 2, keeping the largest
-// 4 x (the number of JOINTS_n sets) and renormalising to a sum of 1.
+// 4 x (the number of JOINTS_n sets) (equal weights in the order a, then b, lists them) and
+// renormalising to a sum of 1.
 // Vertex counts grow by one per edge a level (about 4x a level for closed meshes).
 #pragma once
 
