@@ -179,6 +179,22 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
   const int target_pelvis = rig.target_joint(canonical::pelvis);
   const auto paired = [&rig](int c) { return rig.source_map.mapped(c) && rig.target_map.mapped(c); };
   const bool hips = paired(canonical::left_hip) && paired(canonical::right_hip);
+  // Lines from a paired joint to the neck (above): the torso from spine1, and from the pelvis.
+  struct Line {
+    int source_from = -1, source_to = -1, target_from = -1, target_to = -1;
+    Accumulator error;
+  };
+  const int top = paired(canonical::neck) ? canonical::neck : canonical::head;  // a rig without a neck: its head
+  const auto line_to_neck = [&](int from) {
+    Line line;
+    if (paired(from) && paired(top)) {
+      line = {rig.source_joint(from), rig.source_joint(top), rig.target_joint(from), rig.target_joint(top), {}};
+    }
+    return line;
+  };
+  Line torso = line_to_neck(canonical::spine1), pelvis_to_neck = line_to_neck(canonical::pelvis);
+  const std::vector<const Segment*> spine = spine_chain(rig);
+  Accumulator spine_bend;
   FramePose source_pose(source, source_feet.levelling), target_pose(result, target_feet.levelling);
   Accumulator effector_error, hip_line;
   for (int f = 0; f < result.frame_count(); ++f) {
@@ -197,6 +213,19 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
       hip_line.add(angle_deg(line(source_pose, rig.source_joint(canonical::left_hip), rig.source_joint(canonical::right_hip)),
                              line(target_pose, rig.target_joint(canonical::left_hip), rig.target_joint(canonical::right_hip))));
     }
+    if (!spine.empty()) {
+      const Segment &first = *spine.front(), &last = *spine.back();
+      const auto bend = [](const FramePose& pose, int a, int b, int c, int d) {
+        return angle_deg(pose.position[b] - pose.position[a], pose.position[d] - pose.position[c]);
+      };
+      spine_bend.add(std::abs(bend(target_pose, first.target_start, first.target_end, last.target_start, last.target_end) -
+                              bend(source_pose, first.source_start, first.source_end, last.source_start, last.source_end)));
+    }
+    for (Line* line : {&torso, &pelvis_to_neck}) {
+      if (line->source_from < 0) continue;
+      line->error.add(angle_deg(source_pose.position[line->source_to] - source_pose.position[line->source_from],
+                                target_pose.position[line->target_to] - target_pose.position[line->target_from]));
+    }
     for (int c : effectors) {
       const Eigen::Vector3d target_relative = target_pose.position[rig.target_joint(c)] - target_pose.position[target_pelvis];
       const Eigen::Vector3d source_relative = source_pose.position[rig.source_joint(c)] - source_pose.position[source_pelvis];
@@ -204,6 +233,9 @@ RetargetMetrics result_metrics(const RetargetRig& rig, const Clip& source, const
     }
   }
   metrics.hip_line = hip_line.direction();
+  metrics.torso = torso.error.direction();
+  metrics.pelvis_to_neck = pelvis_to_neck.error.direction();
+  metrics.spine_bend = spine_bend.direction();
   metrics.end_effector_mean_m = effector_error.mean();
   metrics.end_effector_max_m = effector_error.max;
 

@@ -18,6 +18,16 @@
 // Hip line error, degrees: per frame, the angle between the source's right hip -> left hip line
 // and the target's, when both hips are paired. No limb starts at the pelvis, so this is where
 // the pelvis's roll and turn show (the rest alignment fits this lateral pair, rig.h).
+// Torso error, degrees: per frame, the angle between the source's line from the spine's base joint
+// (spine1) to the neck (the head on a rig without a neck) and the target's: the torso above the
+// pelvis as a whole, where the spine's bend shows. Rigs split the spine into different numbers and
+// lengths of bones (CMU's Spine, Spine1 and a neck from the chest against Mixamo's Spine, Spine1,
+// Spine2), so every segment can be exact while this line is not (transfer.h, the spine's bend).
+// Pelvis to neck, degrees: the same from the pelvis joint; it adds how the spine leaves the pelvis,
+// the rig's build (rig.h: the pelvis's midline child is not aligned), so it is reported, not
+// targeted. Spine bend error, degrees: per frame, |b_T - b_S|, b the angle between the first and
+// the last segment of the spine chain (rig.h: spine_chain), how far the spine curls; no samples
+// without a chain.
 // End-effector error, m: per frame and paired head, wrist and ankle e,
 //   | (p_T(e) - p_T(pelvis)) - s (p_S(e) - p_S(pelvis)) |,   mean and max.
 // Foot skate ratio: over every foot and every pair of consecutive frames (t, t+1), the share where
@@ -75,6 +85,9 @@ struct RetargetMetrics {
   DirectionError branch_direction;
   DirectionError foot_direction;  // ankle -> ball of the foot, pitched to the floor (above)
   DirectionError hip_line;  // no samples when a rig lacks a hip
+  DirectionError torso;          // spine1 -> neck (or head, above); no samples when a rig lacks either
+  DirectionError pelvis_to_neck;  // the same from the pelvis
+  DirectionError spine_bend;     // |b_T - b_S| (above)
   double end_effector_mean_m = 0, end_effector_max_m = 0;
   double foot_skate_ratio = 0;      // scale-aware (above)
   double foot_skate_ratio_gmd = 0;  // fixed thresholds (above)

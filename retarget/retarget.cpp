@@ -30,6 +30,9 @@ nlohmann::ordered_json metrics_json(const RetargetMetrics& metrics, bool compara
     json["branch_direction_deg"] = direction_json(metrics.branch_direction);
     json["foot_direction_deg"] = direction_json(metrics.foot_direction);
     json["hip_line_deg"] = direction_json(metrics.hip_line);
+    json["torso_deg"] = direction_json(metrics.torso);
+    json["pelvis_to_neck_deg"] = direction_json(metrics.pelvis_to_neck);
+    json["spine_bend_deg"] = direction_json(metrics.spine_bend);
     json["end_effector_m"] = {{"mean", metrics.end_effector_mean_m}, {"max", metrics.end_effector_max_m}};
   }
   json["foot_skate_ratio"] = metrics.foot_skate_ratio;

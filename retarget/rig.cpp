@@ -375,6 +375,23 @@ const char* source_rest_name(SourceRest rest) {
   return rest == SourceRest::rest ? "rest" : "first_frame";
 }
 
+std::vector<const Segment*> spine_chain(const RetargetRig& rig) {
+  const auto paired = [&rig](int c) { return rig.source_map.mapped(c) && rig.target_map.mapped(c); };
+  const int top = paired(canonical::neck) ? canonical::neck : canonical::head;
+  std::vector<const Segment*> chain;
+  if (!paired(canonical::spine1) || !paired(top)) return chain;
+  for (int at = canonical::spine1; at != top;) {
+    const auto next = std::find_if(rig.segments.begin(), rig.segments.end(), [&](const Segment& segment) {
+      return segment.canonical_start == at && (canonical_limb(segment.canonical_end) == "spine" || segment.canonical_end == top);
+    });
+    if (next == rig.segments.end() || next->degenerate) return {};
+    chain.push_back(&*next);
+    at = next->canonical_end;
+  }
+  if (chain.size() < 2) chain.clear();
+  return chain;
+}
+
 RetargetRig build_retarget_rig(const Clip& source, const BoneMap& source_map, const Skeleton& target,
                                const BoneMap& target_map, SourceRest source_rest, const AlignmentOptions& options) {
   RetargetRig rig;

@@ -134,6 +134,12 @@ struct RetargetRig {
   int target_joint(int canonical) const { return target_map.joints[canonical]; }
 };
 
+// The spine's segments from spine1 up to the neck (the head on a rig without a neck), in order
+// up the canonical tree: the chain along which the transfer shares the performer's bend
+// (transfer.h). Empty when spine1 or the top is not paired, when a segment of the way is
+// degenerate, or when the chain is one segment (its chord is the segment: nothing to share).
+std::vector<const Segment*> spine_chain(const RetargetRig& rig);
+
 // Pairs the maps, aligns and scales. `source` supplies the skeleton and, for
 // SourceRest::first_frame, the first frame. Throws std::invalid_argument when the pelvis is not
 // mapped on both rigs, when a target joint mapped above the target pelvis would fight the root

@@ -193,6 +193,44 @@ TEST(MetricsTest, HipLineByHand) {
   EXPECT_EQ(no_hips.hip_line.samples, 0);
 }
 
+// The torso, pelvis to neck and the spine's bend. A straight spine: pelvis (0, 0, 1), spine1 0.1 above it, spine3
+// 0.2 above that, neck 0.2 above, head 0.1 above. In the second frame the result bends at the chest:
+// spine3 -> neck (and the head with it) turns 20 degrees toward +x. Both spine segments keep
+// their length 0.2, so the torso line spine1 -> neck halves the bend: 10 degrees off the source's.
+// The pelvis -> neck line is (0.2 sin 20, 0, 0.3 + 0.2 cos 20) against (0, 0, 0.5).
+TEST(MetricsTest, TorsoPelvisToNeckAndSpineBendByHand) {
+  const Skeleton skeleton({"pelvis", "spine1", "spine3", "neck", "head"}, {-1, 0, 1, 2, 3},
+                          {Vector3d(0, 0, 1), Vector3d(0, 0, 0.1), Vector3d(0, 0, 0.2), Vector3d(0, 0, 0.2), Vector3d(0, 0, 0.1)});
+  const BoneMap map = identity_map(skeleton);
+  const std::vector<Vector3d> straight = {Vector3d(0, 0, 1), Vector3d(0, 0, 1.1), Vector3d(0, 0, 1.3), Vector3d(0, 0, 1.5),
+                                          Vector3d(0, 0, 1.6)};
+  const double bend = 20 * std::numbers::pi / 180;
+  const Vector3d up(std::sin(bend), 0, std::cos(bend));
+  std::vector<Vector3d> bent = straight;
+  bent[3] = bent[2] + 0.2 * up;
+  bent[4] = bent[3] + 0.1 * up;
+  const Clip source = placed({straight, straight}, 30, skeleton);
+  const Clip result = placed({straight, bent}, 30, skeleton);
+  const RetargetRig rig = build_retarget_rig(placed({straight}, 30, skeleton), map, skeleton, map);
+  Feet heads;  // no foot: contacts are not what this test reads
+  heads.sides[0] = {{4}, {1.6}};
+  heads.sides[1] = {{4}, {1.6}};
+  FootContacts contacts;
+  contacts.planted = {std::vector<std::uint8_t>(2, 0), std::vector<std::uint8_t>(2, 0)};
+  const RetargetMetrics metrics = result_metrics(rig, source, heads, result, heads, contacts);
+  EXPECT_EQ(metrics.torso.samples, 2);
+  EXPECT_NEAR(metrics.torso.max_deg, 10.0, 1e-9);
+  EXPECT_NEAR(metrics.torso.mean_deg, 5.0, 1e-9);
+  const double from_pelvis = std::atan2(0.2 * std::sin(bend), 0.3 + 0.2 * std::cos(bend)) * 180 / std::numbers::pi;
+  EXPECT_NEAR(metrics.pelvis_to_neck.max_deg, from_pelvis, 1e-9);
+  EXPECT_NEAR(metrics.pelvis_to_neck.mean_deg, from_pelvis / 2, 1e-9);
+  EXPECT_GT(from_pelvis, 7.9);  // 7.98: the segment's 20 degrees, diluted by the 0.3 m below the chest
+  // The chain spine1 -> spine3 -> neck curls by 20 degrees where the source's is straight.
+  EXPECT_EQ(metrics.spine_bend.samples, 2);
+  EXPECT_NEAR(metrics.spine_bend.max_deg, 20.0, 1e-9);
+  EXPECT_NEAR(metrics.spine_bend.mean_deg, 10.0, 1e-9);
+}
+
 // Scale-aware skate. The target is legs() twice as large (pelvis at 2 m), so s = 2 and the
 // scale-aware thresholds are 10 cm and 1 m/s; GMD's stay 5 cm and 0.5 m/s. The result's left
 // ankle, at 10 fps, has heights 0.01, 0.02, 0.03, 0.07, 0.08, 0.04, 0.04 and moves along x by
