@@ -28,7 +28,9 @@
 //                    detached target segment (rig.h) the target direction is W_T(a) times the
 //                    rest chord in a's frame, as metrics.h measures it; a foot segment (ankle ->
 //                    ball of the foot) is aimed at the reference's direction instead, which the
-//                    transfer pitched to the floor (transfer.h)
+//                    transfer pitched to the floor (transfer.h), and so is a segment of the
+//                    spine chain (rig.h), whose bend the transfer shared between the torso and
+//                    its segments
 //   end effector     w_ee L ( (p_T(e) - p_T(pelvis)) - s (p_S(e) - p_S(pelvis)) ),  e = head,
 //                    wrists, ankles
 //   foot contact     w_foot L ( p_T(k) - D(t) ),  when the foot plan below places a point k

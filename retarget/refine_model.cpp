@@ -171,12 +171,13 @@ struct PendingTerm {
 std::vector<PendingTerm> residual_terms(const RetargetRig& rig, const RefineModel& model,
                                         const std::vector<RigidTransform<double>>& rest, const Dependencies& depends) {
   std::vector<PendingTerm> pending;
+  const std::vector<const Segment*> spine = spine_chain(rig);
   for (const Segment& segment : rig.segments) {
     if (segment.degenerate || (segment.branch && !segment.spine_continuation)) continue;
     PendingTerm term{PendingTerm::Kind::direction, {}, {}, {}, {segment.target_start}, 0};
     term.direction.source_from = segment.source_start;
     term.direction.source_to = segment.source_end;
-    term.direction.foot = segment.foot();
+    term.direction.from_reference = segment.foot() || std::find(spine.begin(), spine.end(), &segment) != spine.end();
     const int a = segment.target_start;
     if (segment.target_attached) {
       term.joints.push_back(segment.target_end);
@@ -659,7 +660,7 @@ void FrameBuilder::fill(const Limb& limb, const FramePose& pose, const MotionPla
   frame.direction_target.resize(limb.directions.size());
   for (std::size_t d = 0; d < limb.directions.size(); ++d) {
     const DirectionTerm& term = limb.directions[d];
-    frame.direction_target[d] = term.foot && term.to >= 0
+    frame.direction_target[d] = term.from_reference && term.to >= 0
                                     ? Eigen::Vector3d(reference_position(limb.nodes[term.to].joint) - reference_position(limb.nodes[term.from].joint))
                                           .normalized()
                                     : Eigen::Vector3d(source_position(term.source_to) - source_position(term.source_from)).normalized();

@@ -59,7 +59,10 @@ struct DirectionTerm {
   int from = -1, to = -1;        // nodes; `to` is -1 for a detached segment
   Eigen::Vector3d rest_chord;    // detached: unit rest chord in the start joint's frame
   int source_from = -1, source_to = -1;
-  bool foot = false;  // Segment::foot: the target is the reference's direction, not the source's
+  // Segment::foot or a segment of the spine chain (rig.h): the target is the reference's direction,
+  // which the transfer shaped (transfer.h: feet pitched to the floor, the spine's bend shared), not
+  // the source's.
+  bool from_reference = false;
 };
 
 struct EffectorTerm {

@@ -215,6 +215,11 @@ void FastTransfer::make_rules(const std::vector<RigidTransform<double>>& rest) {
       }
     }
   }
+  for (const Segment* segment : spine_chain(rig)) {
+    rules_[segment->target_start].spine_turned = true;
+    spine_chain_.push_back(
+        {segment->source_start, segment->source_end, (rest[segment->target_end].translation - rest[segment->target_start].translation).norm()});
+  }
   for (const BoneMap::Follower& follower : rig.target_map.followers) {
     const int anchor = rig.target_joint(follower.canonical);
     if (anchor < 0) continue;
@@ -320,6 +325,7 @@ struct FastTransfer::Workspace {
   // Per foot, its support point (the lowest, contacts.h) in the last frame: which and where.
   std::array<int, 2> last_target_point{}, last_source_joint{};
   std::array<Eigen::Vector3d, 2> last_target_support, last_source_support;
+  Eigen::Quaterniond spine_turn = Eigen::Quaterniond::Identity();  // T(t) of transfer.h, this frame
 
   Workspace(const FastTransfer& transfer, const Clip& clip, const Eigen::Quaterniond& levelling)
       : source(clip.skeleton.kinematics()),
@@ -425,6 +431,15 @@ void FastTransfer::place_target(const Feet& source_feet, const Eigen::Quaternion
   // Per foot, the pitch its first joint took: a driven ball of the foot takes it too, so that it
   // keeps its bend against the foot.
   std::array<Eigen::Quaterniond, 2> pitch{Eigen::Quaterniond::Identity(), Eigen::Quaterniond::Identity()};
+  if (!spine_chain_.empty()) {
+    const auto position = [&work](int joint) -> const Eigen::Vector3d& { return work.source_position[joint]; };
+    Eigen::Vector3d target_chord = Eigen::Vector3d::Zero();
+    for (const SpineLink& link : spine_chain_) {
+      target_chord += link.target_length * (position(link.source_to) - position(link.source_from)).normalized();
+    }
+    const Eigen::Vector3d source_chord = position(spine_chain_.back().source_to) - position(spine_chain_.front().source_from);
+    work.spine_turn = Eigen::Quaterniond::Identity().slerp(0.5, shortest_rotation(target_chord.normalized(), source_chord.normalized()));
+  }
   const std::span<const int> order(placement_.order);
   for (std::size_t i = 0; i < order.size(); ++i) {
     const int j = order[i];
@@ -459,6 +474,13 @@ void FastTransfer::place_target(const Feet& source_feet, const Eigen::Quaternion
 // source chord for a chain bone; R(t) W^rest for a branch joint, R(t) the rotation factor of
 // B = sum_k u_k(t) u_k^al^T + eps D(t), swung onto its spine continuation's chord if it has one.
 Eigen::Quaterniond FastTransfer::driven_rotation(int joint, const Workspace& work) const {
+  const JointRule& rule = rules_[joint];
+  if (rule.spine_turned) return (work.spine_turn * exact_rotation(joint, work)).normalized();
+  return exact_rotation(joint, work);
+}
+
+// W(t) of a driven joint before the spine's turn.
+Eigen::Quaterniond FastTransfer::exact_rotation(int joint, const Workspace& work) const {
   const JointRule& rule = rules_[joint];
   const Eigen::Quaterniond& reference = work.source.world[rule.reference].rotation;
   const auto chord = [&](int from, int to) -> Eigen::Vector3d {

@@ -41,6 +41,21 @@
 // W(parent)^-1 W(t). A target joint with no paired role keeps its rest local rotation, so it
 // rides rigidly on its parent.
 //
+// The spine's bend (rig.h: spine_chain, the segments k from spine1 up to the neck, lengths L_k on
+// the target). With every segment exact, the target's chord from spine1 to the neck is
+//   c_T(t) = sum_k L_k u_k(t),   u_k the source segments' directions,
+// and the source's is c_S(t) = sum_k L'_k u_k(t), L'_k the performer's lengths (scaled). Two rigs
+// that split the spine in other proportions (CMU's Spine, Spine1 and a neck from the chest; the
+// Mixamo rig's Spine, Spine1, Spine2) put the bend at other heights, so when the performer bends
+// by theta the chords part by about theta (beta_S - beta_T), beta the share of the chain's length
+// above the bend: the torso leans off the performer's with every segment exact. The chain is turned as one, keeping the performer's bend
+// between its segments, by half of the rotation that would make its chord exact:
+//   W_k(t) = T(t) W_k^exact(t),   T(t) = slerp(1, shortest(unit c_T, unit c_S), 1/2),
+// for every driven joint that starts a segment of the chain. Turned by an angle phi, the chord is
+// E - phi off the performer's and every segment phi: phi = E / 2 minimises the sum of the two
+// squares, the torso as a whole and its parts weighing alike. Limbs hanging from the chain (arms,
+// the head) are driven in world and stay exact; only where they hang from moves.
+//
 // The source is read in its levelled world (contacts.h: a tilted capture floor is turned level),
 // so Q_S and p_S below are the levelled source's.
 //
@@ -177,6 +192,12 @@ class FastTransfer {
     Eigen::Quaterniond anchor_to_joint = Eigen::Quaterniond::Identity();  // W^rest(A)^-1 W^rest
     int toe_side = -1;      // the first joint of a foot with a toe (contacts.h), pitched (above): its side
     int pitched_with = -1;  // a driven ball of the foot, turned with its foot: the side
+    bool spine_turned = false;  // starts a segment of the spine chain: turned by T(t) (above)
+  };
+
+  struct SpineLink {
+    int source_from, source_to;  // source joints of the segment
+    double target_length;        // L_k, the target's rest chord
   };
 
   struct BranchChord {
@@ -198,6 +219,7 @@ class FastTransfer {
   static std::vector<Eigen::Quaterniond> pelvis_rolls(const std::vector<double>& gaps, const std::vector<Eigen::Vector3d>& hip_chords,
                                                       const FootContacts& contacts, double fps);
   Eigen::Quaterniond driven_rotation(int joint, const Workspace& work) const;
+  Eigen::Quaterniond exact_rotation(int joint, const Workspace& work) const;
   void write_frame(int frame, const Workspace& work, Clip& out) const;
   void measure_feet(int frame, const Feet& source_feet, Workspace& work) const;
   void move_root(const Workspace& work, const FootContacts& contacts, TransferResult& result) const;
@@ -206,6 +228,7 @@ class FastTransfer {
   Feet target_feet_;
   std::vector<JointRule> rules_;
   std::vector<BranchChord> branch_chords_;
+  std::vector<SpineLink> spine_chain_;  // empty: no turn (rig.h: spine_chain)
   std::vector<Eigen::Quaterniond> rest_rotation_;  // W^rest of every target joint
   // The target's positions as forward kinematics: a joint hangs from its parent, an attached one
   // (followers too) from its anchor A, the root from nothing, each after what it hangs from and

@@ -94,10 +94,16 @@ BoneMap canonical_names_map(const Skeleton& skeleton) {
   return bone_map_from_file(skeleton, file, "canonical names");
 }
 
-void expect_limbs_under(const RetargetMetrics& metrics, double degrees, const std::string& label) {
+// `spine_degrees` bounds the spine limb and the torso line (metrics.h) where a rig's spine is
+// split in proportions far from the performer's (transfer.h: the spine's bend).
+void expect_limbs_under(const RetargetMetrics& metrics, double degrees, const std::string& label, double spine_degrees = 0) {
+  if (spine_degrees == 0) spine_degrees = degrees;
   EXPECT_LT(metrics.bone_direction.mean_deg, degrees) << label;
   EXPECT_GT(metrics.bone_direction.samples, 0) << label;
-  for (const auto& limb : metrics.limbs) EXPECT_LT(limb.error.mean_deg, degrees) << label << ": " << limb.name;
+  for (const auto& limb : metrics.limbs) {
+    EXPECT_LT(limb.error.mean_deg, limb.name == "spine" ? spine_degrees : degrees) << label << ": " << limb.name;
+  }
+  EXPECT_LT(metrics.torso.mean_deg, spine_degrees) << label;
 }
 
 TEST(BodyClipTest, WorldJointsEqualTheBodyModel) {
@@ -217,6 +223,12 @@ TEST_P(SharedAssetsTest, LimbsFollowTheSourceAndFeetKeepTheFloor) {
   const std::string label = c.clip + " onto " + c.character + " from " + source_rest_name(c.rest);
   EXPECT_LT(result.rig.alignment.max_residual_deg, 0.05) << label;
   expect_limbs_under(result.report.result_metrics, 2.0, label);
+  // The torso as a whole (spine1 -> neck) follows the performer's within 2 degrees on average
+  // though the rigs split the spine in other proportions (transfer.h, the spine's bend), and the
+  // chain keeps the performer's bend between its first and last segment exactly.
+  EXPECT_LT(result.report.result_metrics.torso.mean_deg, 2.0) << label;
+  EXPECT_GT(result.report.result_metrics.spine_bend.samples, 0) << label;
+  EXPECT_LT(result.report.result_metrics.spine_bend.max_deg, 1e-4) << label;
   // During the source's contacts the feet stay on the floor: mean depth plus mean height under
   // 1 cm at the performer's size (the metrics are in the target's size, s times larger; measured
   // 0.41-0.64). RobotExpressive's thighs are two thirds of the scaled performer's and its shins
@@ -333,7 +345,17 @@ TEST(RetargetTest, RobotExpressiveShinsFollowTheSourceAndBalancedPlantsTheFeet) 
   // Within 2 cm on the robot (0.9 cm at the performer's size): the bound's floor is the first
   // pass's, and the floor offset is fitted again once the feet are pitched.
   EXPECT_LT(fast.worst_raised_toe, 0.02);
-  EXPECT_LT(fast_metrics.bone_direction.max_deg, 1e-6);  // the shins from knee to foot joint included
+  // Every bone exact, the shins from knee to foot joint included, but the spine chain's, which
+  // the transfer turns as one to share the performer's bend (transfer.h): those are as far off
+  // as the torso line spine1 -> neck, half the lean exact segments would leave.
+  for (const auto& bone : fast_metrics.bones) {
+    const bool spine = bone.name == "spine1->spine3" || bone.name == "spine3->neck";
+    if (spine) {
+      EXPECT_NEAR(bone.error.mean_deg, fast_metrics.torso.mean_deg, 0.05) << bone.name;
+    } else {
+      EXPECT_LT(bone.error.max_deg, 1e-6) << bone.name;
+    }
+  }
   // Pitched from the floor, the feet stand as flat in contact as the performer's (2.3 against 7.1
   // degrees: the toe, 2.9 times as far ahead as the scaled ball, turns less for the same rise).
   EXPECT_LT(fast_metrics.foot_tilt_deg, result.report.source_metrics.foot_tilt_deg);
@@ -437,7 +459,10 @@ TEST(RetargetTest, SmplxSequenceDrivesCharacters) {
   for (const std::string file : {"RobotExpressive.glb", "RiggedFigure.glb"}) {
     const Character target = io::load_character(kAssets + "/characters/" + file);
     const RetargetResult result = retarget_fast(source, source_map, target, humanoid_bone_map(target.skeleton, file));
-    expect_limbs_under(result.report.result_metrics, 2.0, file);
+    // RiggedFigure's chest sits 80% of the way up from spine1 to the neck, the SMPL-X body's far
+    // lower, so under this walk's bend exact segments would leave its torso line about 5 degrees
+    // off; the spine's turn splits that between the line and its segments (2.6 each).
+    expect_limbs_under(result.report.result_metrics, 2.0, file, 3.0);
     EXPECT_GT(result.contacts.planted_count(), 60) << file;
   }
   const Character mixamo = mixamo_reference_character(45);
