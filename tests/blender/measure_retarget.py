@@ -8,13 +8,23 @@
 #                          target bone (parent joint -> child joint) and the source's mapped bone;
 #   foot skate ratio       the share of (foot joint, frame transition) pairs in which the joint is
 #                          within h of the ground in both frames and moves faster than v
-#                          horizontally; heights from the clip's lowest foot-joint height (GMD).
-#                          "scaled": h = 5 cm * s, v = 0.5 m/s * s (s = the character's size over the
-#                          performer's); "gmd": 5 cm and 0.5 m/s; the source's at s = 1;
-#                          "shared floor": scaled, with heights from the lowest foot-joint
-#                          height of all the jobs of one "floor_group" (the same character and
-#                          clip at every quality), so that a file whose feet sink below the
-#                          floor does not lower its own floor and hide its sliding;
+#                          horizontally. "floor": heights from z = 0, the floor the character
+#                          stands on in the exported scene, h = 5 cm * s, v = 0.5 m/s * s (s = the
+#                          character's size over the performer's), the same floor at every
+#                          quality, so that feet sinking below it do not lower the floor they are
+#                          judged from; "gmd": GMD's, heights from the clip's own lowest foot joint,
+#                          5 cm and 0.5 m/s, for comparison with published figures only;
+#   spine bend             the mean over frames of |b_T - b_S|, b the angle between the spine's first
+#                          segment and its last ("bend": [a, b, c, d] canonical: a -> b against
+#                          c -> d);
+#   proportions            "leg_ratio": the shorter of the target's thigh (hip -> knee) and shin
+#                          (knee -> ankle), each over s times the performer's, both legs, first
+#                          frame (the bones are rigid);
+#                          "swing_clearance": per foot, the highest its lowest joint gets above
+#                          z = 0 while the performer's foot is in the swing (the performer's
+#                          lowest foot joint more than 5 cm above its own lowest), over 5 cm * s;
+#                          the smaller of the two feet. Under 1: the foot never clears its own
+#                          skate threshold in the swing;
 #   jitter                 the mean over joints and frames of |x[t+1] - 2 x[t] + x[t-1]| * fps^2 over
 #                          the mapped joints (m/s^2), the target's, and the source's times s (the
 #                          performer at the character's size, so the ratio compares like with like).
@@ -23,9 +33,9 @@
 #
 # jobs.json: [{"glb", "source_npz", "fps", "scale", "levelling_wxyz", "map": [{"canonical", "source", "target"}],
 # "limbs": {limb: [[parent canonical, child canonical], ...]}, "feet": [canonical, ...],
-# "floor_group"}].
-# Output: one entry per job: {"frames", "limbs": {limb: mean deg}, "limbs_raw", "skate_scaled",
-# "skate_gmd", "skate_shared_floor", "source_skate", "jitter", "source_jitter"}. Both worlds are
+# "legs": [[hip, knee, ankle] canonical, per side], "bend": [a, b, c, d]}].
+# Output: one entry per job: {"frames", "limbs": {limb: mean deg}, "limbs_raw", "spine_bend",
+# "skate_floor", "skate_gmd", "leg_ratio", "swing_clearance", "jitter", "source_jitter"}. Both worlds are
 # Z up (Blender converts glTF's Y up). The source is compared levelled by the report's rotation
 # (limbs, skate, jitter), and as recorded (limbs_raw).
 import json
@@ -125,11 +135,28 @@ def measure(job):
         for key, performer in (("limbs", src), ("limbs_raw", raw)):
             cosines = numpy.clip(numpy.sum(directions(target, pairs) * directions(performer, pairs), axis=2), -1.0, 1.0)
             result[key][limb] = float(numpy.degrees(numpy.arccos(cosines)).mean())
+    a, b, c, d = (canonical[name] for name in job["bend"])
+    def bend(positions):
+        return numpy.degrees(numpy.arccos(numpy.clip(numpy.sum(directions(positions, [(a, b)]) * directions(positions, [(c, d)]), axis=2), -1, 1)))
+    result["spine_bend"] = float(numpy.abs(bend(target) - bend(src)).mean())
     feet = [canonical[name] for name in job["feet"] if name in canonical]
-    result["skate_scaled"] = skate_ratio(target[:, feet], fps, 0.05 * scale, 0.5 * scale)
+    result["skate_floor"] = skate_ratio(target[:, feet], fps, 0.05 * scale, 0.5 * scale, floor=0.0)
     result["skate_gmd"] = skate_ratio(target[:, feet], fps, 0.05, 0.5)
-    result["feet"] = target[:, feet]  # for the shared floor, once every job is measured
-    result["source_skate"] = skate_ratio(src[:, feet], fps, 0.05, 0.5)
+    legs = [[canonical[name] for name in leg] for leg in job["legs"]]
+    def leg_length(positions, leg):
+        return sum(numpy.linalg.norm(positions[0, b] - positions[0, a]) for a, b in zip(leg, leg[1:]))
+    # The shorter of the thigh and the shin, each against the scaled performer's, both sides.
+    def bone_ratio(a, b):
+        return sum(leg_length(target, [leg[a], leg[b]]) for leg in legs) / (scale * sum(leg_length(src, [leg[a], leg[b]]) for leg in legs))
+    result["leg_ratio"] = min(bone_ratio(0, 1), bone_ratio(1, 2))
+    clearances = []
+    for prefix in ("left_", "right_"):
+        side = [canonical[name] for name in job["feet"] if name.startswith(prefix) and name in canonical]
+        source_low = src[:, side, 2].min(axis=1)
+        swing = source_low - source_low.min() > 0.05
+        if swing.any():
+            clearances.append(float(target[swing][:, side, 2].min(axis=1).max()) / (0.05 * scale))
+    result["swing_clearance"] = min(clearances) if clearances else None
     result["jitter"] = jitter(target, fps)
     result["source_jitter"] = jitter(src, fps) * scale  # the performer at the character's size
     return result
@@ -144,15 +171,6 @@ def main():
             results.append(measure(job))
         except Exception:
             results.append({"error": traceback.format_exc()})
-    floors = {}
-    for job, result in zip(jobs, results):
-        if "feet" in result:
-            group = job["floor_group"]
-            floors[group] = min(floors.get(group, numpy.inf), float(result["feet"][:, :, 2].min()))
-    for job, result in zip(jobs, results):
-        if "feet" in result:
-            feet, scale = result.pop("feet"), job["scale"]
-            result["skate_shared_floor"] = skate_ratio(feet, job["fps"], 0.05 * scale, 0.5 * scale, floors[job["floor_group"]])
     with open(args["out"], "w") as out:
         json.dump(results, out)
 
