@@ -147,9 +147,13 @@ TEST_P(RetargetCliTest, WritesAValidGlbAndAReport) {
   EXPECT_EQ(report["map"][0]["canonical"], "pelvis");
   EXPECT_TRUE(report["unmapped_joints"].contains("target"));
   EXPECT_LT(report["metrics"]["result"]["bone_direction_deg"]["mean"].get<double>(), 2.0);
+  // The spine up to 3: on RiggedFigure and CesiumMan under the SMPL-X body, exact segments would
+  // leave the torso line 5 degrees off (their chest sits far higher up the spine), and the
+  // transfer splits that between the line and the segments (transfer.h, the spine's bend).
   for (const auto& [limb, error] : report["metrics"]["result"]["limb_direction_deg"].items()) {
-    EXPECT_LT(error["mean"].get<double>(), 2.0) << limb;
+    EXPECT_LT(error["mean"].get<double>(), limb == "spine" ? 3.0 : 2.0) << limb;
   }
+  EXPECT_LT(report["metrics"]["result"]["torso_deg"]["mean"].get<double>(), 3.0);
   EXPECT_TRUE(report["metrics"]["source"].contains("foot_skate_ratio"));
   EXPECT_EQ(report["settings"]["parts"], "body");
   EXPECT_EQ(report["settings"]["fps"].get<double>(), 30.0);
@@ -225,8 +229,16 @@ TEST(RetargetCliTest, CmuWalkWithInferredUnitsOnEveryRigConvention) {
       std::printf("%-28s %-8s limbs (mean deg):", fs::path(c.character).filename().c_str(), quality);
       for (const auto& [limb, error] : metrics["limb_direction_deg"].items()) {
         std::printf(" %s %.2f", limb.c_str(), error["mean"].get<double>());
-        EXPECT_LT(error["mean"].get<double>(), std::string(quality) == "fast" ? 0.1 : c.balanced_bound_deg) << c.character << " " << limb;
+        // At fast every limb carries the performer's directions but the spine chain's (spine, and
+        // head on a rig whose chest carries the head), which the transfer turns as one to share
+        // the performer's bend: those are as far off as the torso line (transfer.h), under 2.
+        const bool fast = std::string(quality) == "fast";
+        const bool spine_chain = limb == "spine" || limb == "head";
+        const double torso = metrics["torso_deg"]["mean"].get<double>();
+        const double bound = !fast ? c.balanced_bound_deg : spine_chain ? torso + 0.01 : 0.1;
+        EXPECT_LT(error["mean"].get<double>(), bound) << c.character << " " << limb;
       }
+      EXPECT_LT(metrics["torso_deg"]["mean"].get<double>(), 2.0) << c.character;
       std::printf(" | skate %.3f (GMD %.3f, source %.3f) | scale %.3f\n", metrics["foot_skate_ratio"].get<double>(),
                   metrics["foot_skate_ratio_gmd"].get<double>(), report["metrics"]["source"]["foot_skate_ratio"].get<double>(),
                   report["scale"].get<double>());
