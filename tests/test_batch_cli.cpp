@@ -191,8 +191,14 @@ TEST(BatchCli, CrossProductWritesTheLayoutTheReportAndValidGlbs) {
     EXPECT_EQ(job["status"], "done");
     EXPECT_EQ(job["frames"], 60) << job["name"];  // 240 frames at 120 fps, resampled to 30
     const nlohmann::json& metrics = job["metrics"];
-    // Fast swings every chain bone onto the source's (docs/benchmarks.md: Retargeting: speed and accuracy).
-    EXPECT_LT(metrics["worst_limb_mean_deg"].get<double>(), 0.01) << job["name"];
+    // Fast swings every chain bone onto the source's (docs/benchmarks.md: Retargeting: speed and
+    // accuracy) but the spine chain's, which it turns as one to share the performer's bend
+    // (retarget/transfer.h): the spine, and the head on a rig whose chest carries it.
+    EXPECT_LT(metrics["worst_limb_mean_deg"].get<double>(), 2.0) << job["name"];
+    for (const auto& [limb, mean] : metrics["limbs_mean_deg"].items()) {
+      if (limb == "spine" || limb == "head") continue;
+      EXPECT_LT(mean.get<double>(), 0.01) << job["name"] << " " << limb;
+    }
     // The report carries the source's figures beside the result's, measured on the same cut.
     EXPECT_GT(metrics["source_jitter"].get<double>(), 0.0);
     EXPECT_GT(metrics["jitter"].get<double>(), 0.0);
