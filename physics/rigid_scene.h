@@ -120,7 +120,7 @@ struct PhysicsScene {
   double fps = 30;
   int frame_count = 0;  // output frames, >= 1
   double min_substep_rate = 240;  // Hz; see "Time" above
-  int solver_iterations = 10;     // [1, 1000]
+  int solver_iterations = 20;     // [1, 1000]
   Eigen::Vector3d gravity{0, 0, -9.81};
   bool ground = true;  // the infinite plane z = 0
   double ground_friction = kDefaultGroundFriction;
