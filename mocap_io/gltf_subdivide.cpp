@@ -254,46 +254,42 @@ int add_float_accessor(tinygltf::Model& model, std::vector<unsigned char>& buffe
   return static_cast<int>(model.accessors.size() - 1);
 }
 
+// Calls visit(index) on every accessor index the model refers to (primitives' attributes, morph
+// targets and indices, skins' inverse bind matrices, animation samplers); -1 means none.
+template <typename Visit>
+void for_each_accessor_reference(tinygltf::Model& model, Visit visit) {
+  for (auto& mesh : model.meshes) {
+    for (auto& primitive : mesh.primitives) {
+      for (auto& [name, index] : primitive.attributes) visit(index);
+      for (auto& target : primitive.targets)
+        for (auto& [name, index] : target) visit(index);
+      visit(primitive.indices);
+    }
+  }
+  for (auto& skin : model.skins) visit(skin.inverseBindMatrices);
+  for (auto& animation : model.animations) {
+    for (auto& sampler : animation.samplers) {
+      visit(sampler.input);
+      visit(sampler.output);
+    }
+  }
+}
+
 // Keeps only the accessors and buffer views still referenced, packed into one new buffer.
 void pack(tinygltf::Model& model, std::vector<unsigned char>& fresh, std::size_t first_fresh_view) {
   std::vector<int> accessor_map(model.accessors.size(), -1), view_map(model.bufferViews.size(), -1);
-  auto use_accessor = [&](int& index) {
-    if (index < 0) return;
-    if (accessor_map[index] < 0) accessor_map[index] = 0;  // marked; numbered below
-  };
-  for (auto& mesh : model.meshes)
-    for (auto& primitive : mesh.primitives) {
-      for (auto& [name, index] : primitive.attributes) use_accessor(index);
-      for (auto& target : primitive.targets)
-        for (auto& [name, index] : target) use_accessor(index);
-      use_accessor(primitive.indices);
-    }
-  for (auto& skin : model.skins) use_accessor(skin.inverseBindMatrices);
-  for (auto& animation : model.animations)
-    for (auto& sampler : animation.samplers) {
-      use_accessor(sampler.input);
-      use_accessor(sampler.output);
-    }
+  for_each_accessor_reference(model, [&](int& index) {
+    if (index >= 0) accessor_map[index] = 0;  // marked; numbered below
+  });
   std::vector<tinygltf::Accessor> accessors;
   for (std::size_t i = 0; i < model.accessors.size(); ++i) {
     if (accessor_map[i] < 0) continue;
     accessor_map[i] = static_cast<int>(accessors.size());
     accessors.push_back(model.accessors[i]);
   }
-  auto remap_accessor = [&](int& index) { if (index >= 0) index = accessor_map[index]; };
-  for (auto& mesh : model.meshes)
-    for (auto& primitive : mesh.primitives) {
-      for (auto& [name, index] : primitive.attributes) remap_accessor(index);
-      for (auto& target : primitive.targets)
-        for (auto& [name, index] : target) remap_accessor(index);
-      remap_accessor(primitive.indices);
-    }
-  for (auto& skin : model.skins) remap_accessor(skin.inverseBindMatrices);
-  for (auto& animation : model.animations)
-    for (auto& sampler : animation.samplers) {
-      remap_accessor(sampler.input);
-      remap_accessor(sampler.output);
-    }
+  for_each_accessor_reference(model, [&](int& index) {
+    if (index >= 0) index = accessor_map[index];
+  });
   model.accessors = std::move(accessors);
 
   // Views referenced by the kept accessors and by images; the old ones are copied into the fresh
