@@ -119,17 +119,18 @@ PointVisibility DepthBuffer::classify(const Eigen::Vector3d& point) const {
   auto scan = [&](const BoxColumns& boxes, std::size_t first, std::size_t last) {
     for (std::size_t block = first; block < last; block += kScanBlock) {
       std::array<std::uint8_t, kScanBlock> holds;
-      for (std::size_t k = 0; k < kScanBlock; ++k) {
-        const std::size_t i = block + k;
-        holds[k] = (uf >= boxes.u0[i]) & (uf <= boxes.u1[i]) & (vf >= boxes.v0[i]) & (vf <= boxes.v1[i]) &
+      for (std::size_t j = 0; j < kScanBlock; ++j) {
+        const std::size_t i = block + j;
+        holds[j] = (uf >= boxes.u0[i]) & (uf <= boxes.u1[i]) & (vf >= boxes.v0[i]) & (vf <= boxes.v1[i]) &
                    (boxes.nearest[i] < beyond);
       }
       std::uint64_t any[2];
+      static_assert(sizeof any == kScanBlock, "a block's flags are read as two 64-bit words");
       std::memcpy(any, holds.data(), sizeof any);
       if ((any[0] | any[1]) == 0) continue;
-      for (std::size_t k = 0; k < std::min(kScanBlock, last - block); ++k) {
-        if (!holds[k]) continue;
-        const std::uint32_t id = boxes.triangle[block + k];
+      for (std::size_t j = 0; j < std::min(kScanBlock, last - block); ++j) {
+        if (!holds[j]) continue;
+        const std::uint32_t id = boxes.triangle[block + j];
         const std::size_t t = 3 * std::size_t{id};
         const double s =
             ray_parameter(camera_[triangles_[t]], camera_[triangles_[t + 1]], camera_[triangles_[t + 2]], point);
