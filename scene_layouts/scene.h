@@ -68,6 +68,19 @@ struct SceneActor {
 // What a prop is in a sequence's masks (pointodyssey.h); a ground prop is always ground.
 enum class PropCategory { prop, ground, structure };
 
+// A dynamic prop's physical properties (Prop::dynamics). Declared outside Prop: a nested struct
+// with default member initializers is not yet complete where std::optional<Prop::Dynamics> asks
+// whether it can be default-constructed (clang rejects emplace() on it).
+struct PropDynamics {
+  double mass = 1;           // kg, > 0, spread uniformly over the shape's volume
+  double friction = 0.5;     // [0, 2]; a contact uses the product of both bodies' values
+  double restitution = 0.5;  // [0, 1]; likewise
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();          // m/s at t = 0, of the prop's origin
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  // rad/s at t = 0, world axes
+  // A mesh collides as the union of its connected pieces' hulls, not as one hull.
+  bool pieces = false;
+};
+
 struct Prop {
   enum class Kind { ground, box, mesh };
   Kind kind = Kind::box;
@@ -79,15 +92,7 @@ struct Prop {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   double yaw_deg = 0, scale = 1;
   // Set: a dynamic prop (a box collides as a box, a mesh as the convex hull of its vertices).
-  struct Dynamics {
-    double mass = 1;           // kg, > 0, spread uniformly over the shape's volume
-    double friction = 0.5;     // [0, 2]; a contact uses the product of both bodies' values
-    double restitution = 0.5;  // [0, 1]; likewise
-    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();          // m/s at t = 0, of the prop's origin
-    Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  // rad/s at t = 0, world axes
-    // A mesh collides as the union of its connected pieces' hulls, not as one hull.
-    bool pieces = false;
-  };
+  using Dynamics = PropDynamics;
   std::optional<Dynamics> dynamics;
 };
 
