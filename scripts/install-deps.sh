@@ -7,6 +7,7 @@ packages=(
   libgtest-dev libbenchmark-dev zlib1g-dev libpng-dev libjpeg-dev
   libbullet-dev pkg-config  # props that react: rigid-body physics (physics/, the double-precision build, found through pkg-config)
   python3-numpy python3-pil  # tests read the npz files with numpy and the images with PIL, as the trackers' loaders do
+  python3-dev pybind11-dev python3-pytest  # the Python module (python/) and its tests (tests/python_module/)
   blender  # tests import the scene GLB into Blender 3.4 headless (80 MB download, 520 MB installed)
   slurmctld slurmd slurm-client munge  # the batch's cluster path runs on a one-node Slurm (scripts/slurm-local.sh)
 )
