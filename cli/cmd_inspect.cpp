@@ -132,6 +132,7 @@ void inspect_character(const std::string& path) {
   std::printf("rest height: %.4f m (z from %.4f to %.4f, %s)\n", bounds.isEmpty() ? 0.0 : bounds.sizes().z(),
               bounds.isEmpty() ? 0.0 : bounds.min().z(), bounds.isEmpty() ? 0.0 : bounds.max().z(),
               character.meshes.empty() ? "joints" : "skinned meshes");
+  std::printf("rest pose from: %s\n", character.rest_pose_origin.c_str());
 
   // The map a retarget would use; when the rig is not a humanoid, what detection found anyway
   // (it still tells the arms apart for the rest pose kind, and what stays unmapped).

@@ -19,6 +19,7 @@
 #include <string_view>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/input_file.h"
 #include "skeleton/node_transform.h"
 #include "skeleton/rotation.h"
 
@@ -31,6 +32,14 @@ static_assert(std::endian::native == std::endian::little,
 // Largest ratio - 1 between the singular values of a world linear part that still counts as one
 // uniform scale on a node with joints below it (see the header).
 constexpr double kMaxAnisotropy = 1e-3;
+// The nodes hold the bind pose when every skin joint's rigid frame at bind (from the inverse bind
+// matrices) and in the nodes agree to these: positions to this fraction of the skeleton's size,
+// rotations to this angle (radians). Float32 matrices from exporters agree to about 1e-6.
+constexpr double kBindPositionTolerance = 1e-4;
+constexpr double kBindAngleTolerance = 1e-4;
+// An inverse bind matrix whose linear part's smallest singular value is below this fraction of
+// its largest cannot be inverted into a bind pose (and would collapse the mesh).
+constexpr double kMinIbmConditioning = 1e-9;
 // gltf_decode_budget(): a floor for small files, and a factor over the input's bytes.
 constexpr std::uint64_t kDecodeBudgetFloor = std::uint64_t(16) << 20;
 constexpr std::uint64_t kDecodeBudgetPerInputByte = 64;
@@ -62,8 +71,7 @@ bool fits(std::uint64_t offset, std::uint64_t length, std::uint64_t size) {
 }
 
 std::vector<unsigned char> read_whole_file(const std::string& path) {
-  std::error_code error;
-  if (!std::filesystem::is_regular_file(path, error)) throw InputError(path, "no such file (or not a regular file)");
+  require_input_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "cannot be opened");
   in.seekg(0, std::ios::end);
@@ -301,9 +309,12 @@ class CharacterReader {
     compute_world_matrices();
     mark_scene();
     select_skeleton_nodes();
+    read_inverse_binds();
     Character character;
     character.name = std::filesystem::path(path_).stem().string();
+    adopt_bind_pose(character);
     build_skeleton(character);
+    record_rest_locals(character);
     read_declared_humanoid(character);
     for (std::size_t skin = 0; skin < model_.skins.size(); ++skin) bindings_.push_back(bind_skin(int(skin)));
     for (int node = 0; node < node_count(); ++node) {
@@ -912,35 +923,146 @@ class CharacterReader {
     }
   }
 
-  // inverse_bind_k = [R | t]^-1 G(joint_k) IBM_k (see the header).
+  // inverse_bind_k = [R | t]^-1 G(joint_k) IBM_k (see the header), G the rest (bind) world.
   SkinBinding bind_skin(int skin_index) {
     const tinygltf::Skin& skin = model_.skins[skin_index];
-    const std::string label = "skin " + std::to_string(skin_index) + " inverse bind matrices";
-    const std::size_t joint_count = skin.joints.size();
-    Elements matrices;
-    if (skin.inverseBindMatrices >= 0) {
-      matrices = read_accessor(skin.inverseBindMatrices, label, TINYGLTF_TYPE_MAT4, {TINYGLTF_COMPONENT_TYPE_FLOAT});
-      if (matrices.count < joint_count) {
-        fail(label + " hold " + std::to_string(matrices.count) + " matrices for " + std::to_string(joint_count) +
-             " joints");
-      }
-    }
     SkinBinding binding;
-    for (std::size_t k = 0; k < joint_count; ++k) {
+    for (std::size_t k = 0; k < skin.joints.size(); ++k) {
       const int node = skin.joints[k];
-      Eigen::Matrix4d inverse_bind = Eigen::Matrix4d::Identity();
-      if (skin.inverseBindMatrices >= 0) {
-        inverse_bind = Eigen::Map<const Eigen::Matrix4d>(&matrices.values[k * 16]);
-        if (!inverse_bind.allFinite()) fail(label + ": matrix " + std::to_string(k) + " is not finite");
-        if ((inverse_bind.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-6) {
-          fail(label + ": matrix " + std::to_string(k) + " is not affine (last row not 0 0 0 1)");
-        }
-        inverse_bind.row(3) = Eigen::RowVector4d(0, 0, 0, 1);
-      }
       binding.joints.push_back(joint_of_node_[node]);
-      binding.inverse_bind.push_back(frame_[node].inverse() * world_[node] * inverse_bind);
+      binding.inverse_bind.push_back(frame_[node].inverse() * world_[node] * skin_ibms_[skin_index][k]);
     }
     return binding;
+  }
+
+  std::string skin_label(int skin) const {
+    const std::string& name = model_.skins[skin].name;
+    return "skin " + std::to_string(skin) + (name.empty() ? "" : " '" + name + "'");
+  }
+
+  // Every skin's inverse bind matrices (the identity where a skin has none), checked: finite,
+  // affine, and invertible, since the bind pose is their inverse.
+  void read_inverse_binds() {
+    skin_ibms_.assign(model_.skins.size(), {});
+    for (std::size_t s = 0; s < model_.skins.size(); ++s) {
+      const tinygltf::Skin& skin = model_.skins[s];
+      std::vector<Eigen::Matrix4d>& out = skin_ibms_[s];
+      out.assign(skin.joints.size(), Eigen::Matrix4d::Identity());
+      if (skin.inverseBindMatrices < 0) continue;
+      const std::string label = "skin " + std::to_string(s) + " inverse bind matrices";
+      const Elements matrices =
+          read_accessor(skin.inverseBindMatrices, label, TINYGLTF_TYPE_MAT4, {TINYGLTF_COMPONENT_TYPE_FLOAT});
+      if (matrices.count < skin.joints.size()) {
+        fail(label + " hold " + std::to_string(matrices.count) + " matrices for " + std::to_string(skin.joints.size()) +
+             " joints");
+      }
+      for (std::size_t k = 0; k < skin.joints.size(); ++k) {
+        const std::string which = skin_label(int(s)) + " inverse bind matrix " + std::to_string(k) + " (joint " +
+                                  node_label(skin.joints[k]) + ")";
+        Eigen::Matrix4d m = Eigen::Map<const Eigen::Matrix4d>(&matrices.values[k * 16]);
+        if (!m.allFinite()) fail(which + " is not finite");
+        if ((m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-6) {
+          fail(which + " is not affine (last row not 0 0 0 1)");
+        }
+        m.row(3) = Eigen::RowVector4d(0, 0, 0, 1);
+        const Eigen::Vector3d sigma = Eigen::JacobiSVD<Eigen::Matrix3d>(m.topLeftCorner<3, 3>()).singularValues();
+        if (!(sigma(2) > kMinIbmConditioning * sigma(0))) {
+          std::ostringstream values;
+          values << sigma(0) << ", " << sigma(1) << ", " << sigma(2);
+          fail(which + " is singular (singular values " + values.str() + "): it defines no bind pose");
+        }
+        out[k] = m;
+      }
+    }
+  }
+
+  // The bind pose, as Blender's importer guesses the original one: a skin joint n whose parent p
+  // also has an inverse bind matrix (or is the scene root, or the skin's `skeleton` node, or that
+  // node's parent when it is itself a joint: the identity there) sits at
+  //   Gb(n) = Gb(p) IBM_p IBM_n^-1,
+  // since at bind every joint's G IBM is one matrix M; every other node keeps its local
+  // transform, Gb(n) = Gb(p) L(n). A joint listed by several skins takes the last skin's matrix,
+  // as Blender does. When the nodes disagree with that pose (a joint's position by more than
+  // kBindPositionTolerance of the skeleton's size, or its rotation by kBindAngleTolerance; scale
+  // is not compared, as Blender drops it from bones), the nodes hold another pose and the bind
+  // pose becomes the rest pose: world_ is replaced by Gb.
+  void adopt_bind_pose(Character& character) {
+    const int n = node_count();
+    std::vector<Eigen::Matrix4d> ibm(n, Eigen::Matrix4d::Identity());
+    std::vector<bool> has_ibm(n, false), is_bound_joint(n, false);
+    for (std::size_t s = 0; s < model_.skins.size(); ++s) {
+      const tinygltf::Skin& skin = model_.skins[s];
+      if (skin.inverseBindMatrices < 0) continue;
+      if (skin.skeleton >= 0) {
+        check_index(skin.skeleton, model_.nodes.size(), skin_label(int(s)) + " skeleton", "node");
+        const bool listed = std::find(skin.joints.begin(), skin.joints.end(), skin.skeleton) != skin.joints.end();
+        const int anchor = listed ? parent_[skin.skeleton] : skin.skeleton;
+        if (anchor >= 0 && !has_ibm[anchor]) has_ibm[anchor] = true;  // identity: IBMs relative to it
+      }
+      for (std::size_t k = 0; k < skin.joints.size(); ++k) {
+        ibm[skin.joints[k]] = skin_ibms_[s][k];
+        has_ibm[skin.joints[k]] = is_bound_joint[skin.joints[k]] = true;
+      }
+    }
+    std::vector<Eigen::Matrix4d> bind(n);
+    for (int node : order_) {
+      const int p = parent_[node];
+      const Eigen::Matrix4d above = p < 0 ? Eigen::Matrix4d::Identity() : bind[p];
+      if (is_bound_joint[node] && (p < 0 || has_ibm[p])) {
+        bind[node] = above * (p < 0 ? Eigen::Matrix4d::Identity() : ibm[p]) * ibm[node].inverse();
+      } else {
+        bind[node] = above * local_matrix(node_transform(node));
+      }
+      if (!bind[node].allFinite()) fail(node_label(node) + " bind pose transform (from the inverse bind matrices) overflows");
+    }
+
+    Eigen::AlignedBox3d box;
+    for (int node = 0; node < n; ++node) {
+      if (in_skeleton_[node]) box.extend(Eigen::Vector3d(world_[node].topRightCorner<3, 1>()));
+    }
+    const double size = box.isEmpty() ? 0.0 : box.diagonal().norm();
+    const auto rotation_of = [](const Eigen::Matrix4d& m) {
+      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m.topLeftCorner<3, 3>(), Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Eigen::Matrix3d u = svd.matrixU();
+      if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) = -u.col(2);
+      return Eigen::Matrix3d(u * svd.matrixV().transpose());
+    };
+    int differing = 0, compared = 0;
+    double worst_distance = 0, worst_angle = 0;
+    for (int node = 0; node < n; ++node) {
+      if (!is_bound_joint[node] || !in_skeleton_[node]) continue;
+      ++compared;
+      const double distance = (bind[node].topRightCorner<3, 1>() - world_[node].topRightCorner<3, 1>()).norm();
+      const double angle = Eigen::AngleAxisd(rotation_of(bind[node]).transpose() * rotation_of(world_[node])).angle();
+      if (distance > kBindPositionTolerance * size || angle > kBindAngleTolerance) ++differing;
+      worst_distance = std::max(worst_distance, distance);
+      worst_angle = std::max(worst_angle, angle);
+    }
+    if (differing == 0) {
+      const bool any_ibm = std::any_of(model_.skins.begin(), model_.skins.end(),
+                                       [](const tinygltf::Skin& skin) { return skin.inverseBindMatrices >= 0; });
+      character.rest_pose_origin = any_ibm ? "node transforms (they hold the bind pose of the inverse bind matrices)"
+                                           : "node transforms (no skin has inverse bind matrices)";
+      return;
+    }
+    std::ostringstream origin;
+    origin.precision(3);
+    origin << "inverse bind matrices (the node transforms hold another pose: " << differing << " of " << compared
+           << " skin joints differ, by up to " << worst_distance << " units and " << worst_angle * 180 / std::acos(-1.0)
+           << " degrees)";
+    character.rest_pose_origin = origin.str();
+    world_ = std::move(bind);
+    bind_pose_adopted_ = true;
+  }
+
+  // When the rest pose is the bind pose, each joint's local matrix there (glTF's frame), for
+  // writers that put the rest pose on the file's nodes.
+  void record_rest_locals(Character& character) const {
+    if (!bind_pose_adopted_) return;
+    for (int node : character.source_node_of_joint) {
+      const int p = parent_[node];
+      character.source_rest_local_of_joint.push_back(p < 0 ? world_[node] : Eigen::Matrix4d(world_[p].inverse() * world_[node]));
+    }
   }
 
   void add_node_meshes(int node, Character& character) {
@@ -1133,6 +1255,8 @@ class CharacterReader {
   std::vector<double> scale_;
   std::vector<int> joint_of_node_;
   std::vector<SkinBinding> bindings_;
+  std::vector<std::vector<Eigen::Matrix4d>> skin_ibms_;  // per skin, per joint slot (identity when absent)
+  bool bind_pose_adopted_ = false;                       // world_ holds the bind pose, not the nodes'
   const std::uint64_t decode_budget_;
   std::uint64_t decode_budget_left_;
 };

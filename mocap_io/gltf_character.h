@@ -35,6 +35,23 @@
 // on node n is a skin of the one joint n with weight 1 and inverse_bind = [R | t]^-1 G(n), which
 // is diag(s, s, s, 1) for uniform scale. Missing inverse bind matrices are the identity.
 //
+// The bind pose. Skinning is exact for any pose the nodes hold, but the rest pose a retarget
+// starts from must be the one the mesh was bound in, and some exporters leave the nodes in
+// another (an animation's first frame, a pose struck in the editor). At bind, G(joint_k) IBM_k
+// is one matrix M for every joint of a skin, so a joint whose parent also has an inverse bind
+// matrix sits at Gb(n) = Gb(p) IBM_p IBM_n^-1 relative to it; a joint whose parent is the scene
+// root or the skin's `skeleton` node (that node's parent when it is itself a joint) sits at
+// IBM_n^-1 relative to it; every other node, joints outside every skin included, keeps its own
+// local transform under its parent's bind pose. This is how Blender's importer guesses the
+// original bind pose (its default), and a joint listed by several skins takes the last one's
+// matrix as there. When some skin joint's rigid frame in Gb differs from the nodes' (position by
+// 1e-4 of the skeleton's size or rotation by 1e-4 rad; scale is not compared), the nodes hold
+// another pose and Gb replaces G everywhere below: skeleton, inverse binds (the mesh then rests
+// as stored, M v) and rigid meshes. Character::rest_pose_origin says which pose was used and by
+// how much the nodes differed; source_rest_local_of_joint keeps the bind locals for the writer.
+// An inverse bind matrix that is not finite, not affine or singular (smallest singular value of
+// its linear part under 1e-9 of the largest) is an error naming the skin and the joint.
+//
 // Scale that the rigid skeleton cannot carry. When a joint is posed, its children move rigidly
 // with it; that matches glTF only when the joint's world linear part A is a rotation times one
 // scale. So a node that has joints below it must have singular values of A within a ratio of

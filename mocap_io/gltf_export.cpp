@@ -209,6 +209,7 @@ class AnimatedGlbBuilder {
 
   std::string build() {
     reject_unrenumberable_extensions();
+    put_rest_pose_on_nodes();
     compute_world_matrices();
     check_character_matches_file();
     staging_buffer_ = static_cast<int>(model_.buffers.size());
@@ -316,6 +317,28 @@ class AnimatedGlbBuilder {
       trs.translation = Eigen::Vector3d(n.translation[0], n.translation[1], n.translation[2]);
     }
     return local_matrix(trs);
+  }
+
+  // A character whose rest pose is its skins' bind pose, not the pose its nodes hold
+  // (Character::source_rest_local_of_joint), is written with each joint's node at that rest: the
+  // animation's channels are worked out from the nodes' rest (the header), and a viewer that does
+  // not play the animation shows the character as it was bound.
+  void put_rest_pose_on_nodes() {
+    const std::vector<Eigen::Matrix4d>& locals = character_.source_rest_local_of_joint;
+    if (locals.empty()) return;
+    if (locals.size() != character_.source_node_of_joint.size()) {
+      fail("the character's rest pose has " + std::to_string(locals.size()) + " joint transforms for " +
+           std::to_string(character_.source_node_of_joint.size()) + " joints");
+    }
+    for (std::size_t j = 0; j < locals.size(); ++j) {
+      const int node = character_.source_node_of_joint[j];
+      check_index(node, model_.nodes.size(), "the character's joint '" + character_.skeleton.name(int(j)) + "'", "node");
+      tinygltf::Node& n = model_.nodes[node];
+      n.translation.clear();
+      n.rotation.clear();
+      n.scale.clear();
+      n.matrix.assign(locals[j].data(), locals[j].data() + 16);
+    }
   }
 
   // G(n) = G(parent) L(n) of every node, parents first.

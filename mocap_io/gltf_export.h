@@ -3,7 +3,10 @@
 // optionally, a camera path on a camera node of its own.
 //
 // What the written file holds. Every node keeps its index, name, children and static
-// properties, so Character::source_node_of_joint indexes the written file too. The file's
+// properties, so Character::source_node_of_joint indexes the written file too; only when the
+// character's rest pose is its skins' bind pose rather than its nodes' pose
+// (Character::source_rest_local_of_joint, gltf_character.h) do the joints' nodes get that rest
+// transform, so that the channels below start from the pose the mesh was bound in. The file's
 // animations are removed and replaced by one, named by the options, with LINEAR samplers that
 // share one time accessor (frame f at f / fps seconds, float32, min and max set as the spec
 // requires): a rotation channel on every joint's node, and a translation channel on each root

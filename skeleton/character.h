@@ -41,6 +41,13 @@ struct Character {
   // Uniform scale accumulated on each joint in the file (glTF node scales, armature scale), which
   // the rigid skeleton has folded away; writers restore it for translation channels.
   std::vector<double> source_scale_of_joint;
+  // Where the rest pose comes from, in words: "node transforms (...)", or "inverse bind matrices
+  // (...)" when a skin's inverse bind matrices put its joints elsewhere than the nodes do (the
+  // file's nodes hold another pose than the one the mesh was bound in; mocap_io/gltf_character.h).
+  std::string rest_pose_origin;
+  // In the second case, each joint's local matrix at rest in the file's own frame (its node's
+  // transform as it would read at bind), for writers that pose the original file; else empty.
+  std::vector<Eigen::Matrix4d> source_rest_local_of_joint;
   // The humanoid bone list the file declares, in the file's own vocabulary (VRM's "hips",
   // "leftUpperLeg", ...): which joint plays each bone; empty when the file declares none.
   struct DeclaredBone {
