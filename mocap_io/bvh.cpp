@@ -162,16 +162,24 @@ class BvhParser {
 
   // Opens a ROOT or JOINT block: name, '{'. Blocks are tracked on an explicit stack rather than
   // by recursion, so nesting depth is bounded by memory, not by the call stack.
+  // The name is every word on the keyword's line before the '{' (3ds Max writes "Bip01 L Thigh"),
+  // joined by single spaces.
   void open_joint(int parent, const char* keyword) {
-    const std::string_view name = next_token();
-    if (name.empty()) fail(token_line_, std::string("file ends after ") + keyword);
-    if (name == "{" || name == "}") fail(token_line_, std::string(keyword) + " has no name");
+    const std::string_view first = next_token();
+    if (first.empty()) fail(token_line_, std::string("file ends after ") + keyword);
+    if (first == "{" || first == "}") fail(token_line_, std::string(keyword) + " has no name");
     const int name_line = token_line_;
-    if (!names_.insert(std::string(name)).second) fail(name_line, "joint name " + quoted(name) + " is used twice");
-    const std::string_view brace = next_token();
+    std::string name(first);
+    std::string_view brace = next_token();
+    while (!brace.empty() && brace != "{" && brace != "}" && token_line_ == name_line) {
+      name += ' ';
+      name += brace;
+      brace = next_token();
+    }
+    if (!names_.insert(name).second) fail(name_line, "joint name " + quoted(name) + " is used twice");
     if (brace != "{")
       fail(token_line_, "expected '{' after " + std::string(keyword) + " " + quoted(name) + ", found " + found(brace));
-    joints_.push_back({std::string(name), parent, Eigen::Vector3d::Zero(), 0, {}, false});
+    joints_.push_back({name, parent, Eigen::Vector3d::Zero(), 0, {}, false});
     open_.push_back({static_cast<int>(joints_.size()) - 1, false, false});
   }
 
@@ -476,6 +484,8 @@ namespace {
 
 // A human's head-joint-to-sole span, and the heights taken as a human's (see bvh.h).
 constexpr double kTypicalHeight = 1.6, kLowestHeight = 1.0, kHighestHeight = 2.2;
+// How many frames, spread over the clip, are tried for one that stands when the rest pose does not.
+constexpr int kStandingFrameProbes = 200;
 
 struct Stance {
   double height = 0;  // file units, along `up`
@@ -513,13 +523,15 @@ std::string BvhFrameGuess::description() const {
   } else {
     text += number_text(height_units, 4) + " units tall in the " + measured_on + ", " + number_text(height_m(), 3) + " m";
   }
-  return text + "), " + (up == BvhUp::y ? "Y up" : "Z up");
+  text += std::string("), ") + (up == BvhUp::y ? "Y up" : "Z up");
+  if (reference_frame >= 0) text += "; the rest pose does not stand up, so the " + measured_on + " is the rest pose";
+  return text;
 }
 
 std::string BvhFrameGuess::warning(const std::string& path) const {
   if (plausible) return {};
   if (measured_on.empty()) {
-    return path + ": neither the rest pose nor the first frame stands up, so the BVH unit cannot be inferred; read as " +
+    return path + ": neither the rest pose nor any frame stands up, so the BVH unit cannot be inferred; read as " +
            unit + " (" + number_text(metres_per_unit, 6) + " m per unit): give --bvh-units if that is wrong";
   }
   return path + ": the skeleton is " + number_text(height_units, 4) + " units tall in the " + measured_on +
@@ -537,15 +549,22 @@ BvhFrameGuess guess_bvh_frame(const Clip& raw, std::optional<double> metres_per_
     stance = stance_of(positions);
     if (stance.upright) guess.measured_on = "rest pose";
   }
+  // The first frame, then up to kStandingFrameProbes frames spread evenly over the clip.
   if (!stance.upright && raw.frame_count() > 0) {
     std::vector<RigidTransform<double>> world(raw.joint_count());
-    raw.world_pose(0, world);
-    std::vector<Eigen::Vector3d> positions;
-    for (const RigidTransform<double>& joint : world) positions.push_back(joint.translation);
-    const Stance first = stance_of(positions);
-    if (first.upright) {
-      stance = first;
-      guess.measured_on = "first frame";
+    const int frames = raw.frame_count();
+    const int step = std::max(1, frames / kStandingFrameProbes);
+    for (int frame = 0; frame < frames; frame += step) {
+      raw.world_pose(frame, world);
+      std::vector<Eigen::Vector3d> positions;
+      for (const RigidTransform<double>& joint : world) positions.push_back(joint.translation);
+      const Stance posed = stance_of(positions);
+      if (posed.upright) {
+        stance = posed;
+        guess.reference_frame = frame;
+        guess.measured_on = frame == 0 ? "first frame" : "frame " + std::to_string(frame);
+        break;
+      }
     }
   }
   guess.up = stance.upright ? stance.up : BvhUp::y;
@@ -576,6 +595,23 @@ BvhFrameGuess guess_bvh_frame(const Clip& raw, std::optional<double> metres_per_
   return guess;
 }
 
+Clip with_rest_from_frame(Clip clip, int frame) {
+  if (frame < 0 || frame >= clip.frame_count()) {
+    throw std::invalid_argument("frame " + std::to_string(frame) + " of a " + std::to_string(clip.frame_count()) +
+                                "-frame clip");
+  }
+  std::vector<RigidTransform<double>> local(clip.joint_count());
+  clip.local_pose(frame, local);
+  std::vector<Eigen::Vector3d> offsets;
+  std::vector<Eigen::Quaterniond> rotations;
+  for (int j = 0; j < clip.joint_count(); ++j) {
+    offsets.push_back(local[j].translation);
+    rotations.push_back(clip.rotation(frame, j).normalized());
+  }
+  clip.skeleton = Skeleton(clip.skeleton.names(), clip.skeleton.parents(), std::move(offsets), std::move(rotations));
+  return clip;
+}
+
 Clip with_bvh_frame(Clip raw, double metres_per_unit, BvhUp up) {
   if (!(metres_per_unit > 0) || !std::isfinite(metres_per_unit)) {
     throw std::invalid_argument("BVH metres_per_unit " + std::to_string(metres_per_unit) + " is not a positive finite number");
@@ -585,7 +621,9 @@ Clip with_bvh_frame(Clip raw, double metres_per_unit, BvhUp up) {
   const Eigen::Matrix3d m = bvh_basis(up) * y_up_to_z_up().transpose();
   std::vector<Eigen::Vector3d> offsets;
   for (const Eigen::Vector3d& offset : raw.skeleton.rest_offsets()) offsets.push_back(metres_per_unit * (m * offset));
-  raw.skeleton = Skeleton(raw.skeleton.names(), raw.skeleton.parents(), std::move(offsets));
+  std::vector<Eigen::Quaterniond> rotations = raw.skeleton.rest_rotations();
+  for (Eigen::Quaterniond& rotation : rotations) rotation.vec() = m * rotation.vec();
+  raw.skeleton = Skeleton(raw.skeleton.names(), raw.skeleton.parents(), std::move(offsets), std::move(rotations));
   for (Eigen::Vector3d& translation : raw.translations) translation = metres_per_unit * (m * translation);
   for (Eigen::Quaterniond& rotation : raw.rotations) rotation.vec() = m * rotation.vec();
   return raw;
@@ -595,6 +633,7 @@ LoadedBvh load_bvh_inferring_frame(const std::string& path, std::optional<double
   Clip raw = load_bvh(path, BvhOptions{1.0, BvhUp::y});
   LoadedBvh loaded;
   loaded.frame = guess_bvh_frame(raw, metres_per_unit);
+  if (loaded.frame.reference_frame >= 0) raw = with_rest_from_frame(std::move(raw), loaded.frame.reference_frame);
   loaded.clip = with_bvh_frame(std::move(raw), loaded.frame.metres_per_unit, loaded.frame.up);
   return loaded;
 }

@@ -16,9 +16,12 @@
 // line is fixed at its rest transform.
 //
 // What the Clip holds. Joints are the ROOT and JOINT blocks in file order (depth first, so a
-// parent precedes its children), named as in the file; several ROOTs give several roots. End
+// parent precedes its children), named as in the file (a name is every word on its ROOT or JOINT
+// line, joined by single spaces: 3ds Max writes "Bip01 L Thigh"); several ROOTs give several
+// roots. End
 // Site blocks are not joints (they carry no channels) and are dropped with their offsets. Rest
-// rotations are identity, so a frame's rotation is the joint's whole local rotation. Joints with
+// rotations are identity (load_bvh; load_bvh_inferring_frame may take a frame as the rest pose),
+// and a frame's rotation is the joint's whole local rotation either way. Joints with
 // at least one position channel are the clip's translated joints, and their per-frame
 // translation replaces the rest offset. Both the Y-up BVH world and every joint frame are carried
 // into the Z-up world by the change of basis C = y_up_to_z_up() ((x, y, z) -> (x, -z, y)):
@@ -84,9 +87,12 @@ Clip load_bvh(const std::string& path, const BvhOptions& options = {});
 // along which the joints spread furthest is up, Z only when its spread is more than 1.5 times
 // Y's (a T-pose spreads as far along X, the side axis in both conventions, so X is not a
 // candidate). The height is the joints' spread along that axis, head joint to the lowest foot
-// joint (End Sites are not joints). It is measured in the rest pose, or in the first frame when
-// the rest pose is degenerate (its height is under a quarter of its bounding box's diagonal:
-// every offset zero, or a skeleton lying down). The unit: among kBvhUnits the one that makes
+// joint (End Sites are not joints). It is measured in the rest pose, or, when the rest pose is
+// degenerate (its height is under a quarter of its bounding box's diagonal: every offset zero,
+// or offsets that lie along one axis, as some datasets write them), in the first frame that
+// stands: the first, else up to 200 frames spread evenly over the clip. Such a frame then
+// becomes the clip's rest pose too (load_bvh_inferring_frame, with_rest_from_frame), since
+// retargeting pairs, checks and aligns rigs in their rest pose; the motion is unchanged. The unit: among kBvhUnits the one that makes
 // the height nearest 1.6 m (a human's head-joint-to-sole span) in ratio, |log(h u / 1.6 m)|.
 // The ranges in which each unit gives 1.0-2.2 m barely overlap (dm 10-22 units, CMU 17.7-39,
 // in 39.4-87, cm 100-220), so the nearest is the only plausible one except between 17.7 and 22
@@ -99,12 +105,15 @@ struct BvhFrameGuess {
   std::string unit;            // a kBvhUnits name, or the number given
   bool unit_inferred = false;  // false: the caller gave the unit
   BvhUp up = BvhUp::y;
-  std::string measured_on;     // "rest pose", "first frame", or empty when neither stands up
+  std::string measured_on;     // "rest pose", "first frame", "frame K", or empty when none stands up
+  int reference_frame = -1;    // the frame measured when the rest pose does not stand up, else -1
   double height_units = 0;     // the joints' spread along the up axis, in the file's units
   bool plausible = true;       // the height, in the unit used, is a human's 1.0-2.2 m
 
   double height_m() const { return height_units * metres_per_unit; }
-  // "cmu (0.056444 m per unit, inferred: 25.5 units tall in the rest pose, 1.44 m), Y up"
+  // "cmu (0.056444 m per unit, inferred: 25.5 units tall in the rest pose, 1.44 m), Y up", and when
+  // a frame stands in for the rest pose "; the rest pose does not stand up, so the first frame is
+  // the rest pose"
   std::string description() const;
   // Why the guess is doubtful, naming the file; empty when plausible.
   std::string warning(const std::string& path) const;
@@ -119,12 +128,18 @@ BvhFrameGuess guess_bvh_frame(const Clip& raw, std::optional<double> metres_per_
 // double rounding. Throws std::invalid_argument for a unit that is not positive and finite.
 Clip with_bvh_frame(Clip raw, double metres_per_unit, BvhUp up);
 
+// The clip with frame `frame`'s local pose as its skeleton's rest pose (rest offsets and
+// rotations): every frame poses exactly as before, since a frame's rotations and translations
+// replace the rest ones. Throws std::invalid_argument for a frame the clip does not have.
+Clip with_rest_from_frame(Clip clip, int frame);
+
 struct LoadedBvh {
   Clip clip;
   BvhFrameGuess frame;
 };
 // Loads a BVH file with the given unit, or the inferred one when none is given, and the inferred
-// up axis. Throws as load_bvh.
+// up axis; when the rest pose does not stand up, the frame measured instead is the rest pose
+// (frame.reference_frame). Throws as load_bvh.
 LoadedBvh load_bvh_inferring_frame(const std::string& path, std::optional<double> metres_per_unit = std::nullopt);
 
 }  // namespace odyssey::io

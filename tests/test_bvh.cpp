@@ -650,7 +650,7 @@ TEST(BvhUnitsTest, ADegenerateRestPoseIsMeasuredOnTheFirstFrame) {
   EXPECT_EQ(nothing.frame.measured_on, "");
   EXPECT_EQ(nothing.frame.unit, "cm");
   EXPECT_FALSE(nothing.frame.plausible);
-  EXPECT_EQ(nothing.frame.warning(flat_path), flat_path + ": neither the rest pose nor the first frame stands up, so the BVH "
+  EXPECT_EQ(nothing.frame.warning(flat_path), flat_path + ": neither the rest pose nor any frame stands up, so the BVH "
                                                           "unit cannot be inferred; read as cm (0.01 m per unit): give "
                                                           "--bvh-units if that is wrong");
 }
