@@ -148,8 +148,9 @@ void add_retarget_settings(Args& args) {
               "body")
       .option("threads", "N", "threads for the refinement's frame-by-frame windows (balanced, and accurate's first pass) and for skinning", "1")
       .option("fps", "FPS", "resample the motion to this frame rate before retargeting", "30")
-      .option("map", "FILE", "JSON bone map for the character, applied over the preset or detected map (default: none)")
-      .option("source-map", "FILE", "JSON bone map for the motion's skeleton, applied likewise (default: none)")
+      .option("map", "FILE", "JSON bone map for the character, applied over the preset or detected map, or auto-structure: "
+              "the map found from the skeleton's structure alone (default: none)")
+      .option("source-map", "FILE", "JSON bone map for the motion's skeleton, applied likewise, or auto-structure (default: none)")
       .option("model", "FILE",
               "SMPL-X / SMPL-H / SMPL body model npz for an AMASS motion (default: the synthetic SMPL-X body, seed 0)")
       .option("source-rest", "POSE",

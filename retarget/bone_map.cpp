@@ -11,6 +11,7 @@
 
 #include "mocap_io/input_error.h"
 #include "mocap_io/install_layout.h"
+#include "retarget/bone_map_structure.h"
 #include "retarget/geometry.h"
 
 namespace odyssey::retarget {
@@ -350,20 +351,47 @@ BoneMap bone_map_from_names(const Skeleton& rig) {
 
 namespace {
 
-// The preset's map restricted to the joints the rig has, or an empty map when the rig lacks one of
-// the preset's body joints (pelvis .. wrists; hands and face may be missing, as on a Mixamo rig
-// exported without fingers). `found` counts the entries taken.
+// The prefix every rig joint name of a preset shares, up to and including its last separator
+// (mixamo's "mixamorig:", humanik's "Character1_", max_biped's "Bip01 "), or empty: it names the
+// rig or the character, not the joint, and a rig may carry another in its place.
+std::string preset_prefix(const io::BoneMapFile& preset) {
+  std::optional<std::string> prefix;
+  for (const io::BoneMapEntry& entry : preset.entries) {
+    for (const std::string& name : entry.rig_joints) {
+      if (!prefix) {
+        prefix = name;
+        continue;
+      }
+      std::size_t n = 0;
+      while (n < prefix->size() && n < name.size() && (*prefix)[n] == name[n]) ++n;
+      prefix->resize(n);
+    }
+  }
+  if (!prefix) return {};
+  const std::size_t separator = prefix->find_last_of(":_.- ");
+  return separator == std::string::npos ? std::string() : prefix->substr(0, separator + 1);
+}
+
+bool is_separator(char c) { return c == ':' || c == '_' || c == '.' || c == '-' || c == ' '; }
+
+// The preset's map restricted to the joints the rig has, with the preset's own name prefix
+// replaced by `rig_prefix`; an empty map when the rig lacks one of the preset's body joints
+// (pelvis .. wrists, the balls of the feet excepted: files of one convention have them or not, as
+// hands and face may be missing on a Mixamo rig exported without fingers). `found` counts the
+// entries taken.
 BoneMap map_from_preset_where_found(const Skeleton& rig, const io::BoneMapFile& preset, const std::string& name,
-                                    int& found) {
+                                    const std::string& preset_prefix, const std::string& rig_prefix, int& found) {
   BoneMap map;
   map.origin = "preset " + name;
   found = 0;
+  const auto in_rig = [&](const std::string& joint) { return rig.find(rig_prefix + joint.substr(preset_prefix.size())); };
   for (const io::BoneMapEntry& entry : preset.entries) {
     const int c = canonical_index(entry.canonical);
     if (c < 0) throw io::InputError("preset " + name, "unknown canonical joint '" + entry.canonical + "'");
     if (entry.rig_joints.empty()) continue;
-    const int joint = rig.find(entry.rig_joints.front());
-    if (joint < 0 && c <= canonical::right_wrist) {
+    const int joint = in_rig(entry.rig_joints.front());
+    const bool required = c <= canonical::right_wrist && c != canonical::left_foot && c != canonical::right_foot;
+    if (joint < 0 && required) {
       found = 0;
       return BoneMap();
     }
@@ -371,11 +399,48 @@ BoneMap map_from_preset_where_found(const Skeleton& rig, const io::BoneMapFile& 
     map.joints[c] = joint;
     ++found;
     for (std::size_t k = 1; k < entry.rig_joints.size(); ++k) {
-      const int follower = rig.find(entry.rig_joints[k]);
+      const int follower = in_rig(entry.rig_joints[k]);
       if (follower >= 0) map.followers.push_back({follower, c});
     }
   }
   return map;
+}
+
+// The preset on the rig under every prefix the rig could use in place of the preset's own: the
+// preset's, and, for a preset with a prefix, each non-empty one ending in a separator that puts a
+// rig joint where the preset's pelvis is (Character2_Hips for Character1_Hips, Bip001 Pelvis for
+// Bip01 Pelvis). The prefix that finds most wins, the preset's own among equals. `exact` says
+// whether that was the preset's own prefix.
+BoneMap map_from_preset(const Skeleton& rig, const io::BoneMapFile& preset, const std::string& name, int& found,
+                        bool& exact) {
+  const std::string own = preset_prefix(preset);
+  std::vector<std::string> prefixes = {own};
+  if (!own.empty()) {
+    std::string pelvis;
+    for (const io::BoneMapEntry& entry : preset.entries) {
+      if (entry.canonical == "pelvis" && !entry.rig_joints.empty()) pelvis = entry.rig_joints.front().substr(own.size());
+    }
+    for (const std::string& joint : rig.names()) {
+      if (pelvis.empty() || joint.size() <= pelvis.size() || !joint.ends_with(pelvis)) continue;
+      const std::string prefix = joint.substr(0, joint.size() - pelvis.size());
+      if (is_separator(prefix.back()) && std::find(prefixes.begin(), prefixes.end(), prefix) == prefixes.end()) {
+        prefixes.push_back(prefix);
+      }
+    }
+  }
+  BoneMap best;
+  found = 0;
+  exact = false;
+  for (const std::string& prefix : prefixes) {
+    int count = 0;
+    BoneMap map = map_from_preset_where_found(rig, preset, name, own, prefix, count);
+    if (count > found) {
+      best = std::move(map);
+      found = count;
+      exact = prefix == own;
+    }
+  }
+  return best;
 }
 
 std::string joined(const std::vector<std::string>& items, const char* separator) {
@@ -512,16 +577,17 @@ BoneMap bone_map_from_file(const Skeleton& rig, const io::BoneMapFile& file, con
 
 BoneMap detect_bone_map(const Skeleton& rig) {
   BoneMap best;
-  int best_found = 0;
+  std::pair<bool, int> best_fit{false, 0};  // (the preset's own prefix, entries found)
   for (const std::string& name : preset_names()) {
     int found = 0;
-    BoneMap map = map_from_preset_where_found(rig, load_preset(name), name, found);
-    if (found > best_found && humanoid_problems(rig, map).empty()) {
+    bool exact = false;
+    BoneMap map = map_from_preset(rig, load_preset(name), name, found, exact);
+    if (found > 0 && std::pair(exact, found) > best_fit && humanoid_problems(rig, map).empty()) {
       best = std::move(map);
-      best_found = found;
+      best_fit = {exact, found};
     }
   }
-  return best_found > 0 ? best : bone_map_from_names(rig);
+  return best_fit.second > 0 ? best : bone_map_from_names(rig);
 }
 
 void override_bone_map(BoneMap& map, const Skeleton& rig, const io::BoneMapFile& user, const std::string& origin) {
@@ -611,14 +677,116 @@ BoneMap bone_map_from_declared(const Skeleton& rig, const std::vector<Character:
   return map;
 }
 
+namespace {
+
+// The preset that came nearest to fitting: the most of its body joints found (under the best
+// prefix), and the ones it lacked; empty when no preset finds any.
+std::string closest_preset(const Skeleton& rig) {
+  std::string best;
+  double best_share = 0;
+  for (const std::string& name : preset_names()) {
+    const io::BoneMapFile preset = load_preset(name);
+    const std::string own = preset_prefix(preset);
+    std::vector<std::string> prefixes = {own};
+    if (!own.empty()) {
+      for (const std::string& joint : rig.names()) {
+        // Any rig prefix up to a separator may stand in for the preset's.
+        const std::size_t at = joint.find_first_of(":_.- ");
+        if (at != std::string::npos) prefixes.push_back(joint.substr(0, at + 1));
+      }
+      std::sort(prefixes.begin() + 1, prefixes.end());
+      prefixes.erase(std::unique(prefixes.begin() + 1, prefixes.end()), prefixes.end());
+    }
+    for (const std::string& prefix : prefixes) {
+      int required = 0, found = 0;
+      std::vector<std::string> lacking;
+      for (const io::BoneMapEntry& entry : preset.entries) {
+        const int c = canonical_index(entry.canonical);
+        if (c < 0 || c > canonical::right_wrist || c == canonical::left_foot || c == canonical::right_foot ||
+            entry.rig_joints.empty()) {
+          continue;
+        }
+        ++required;
+        const std::string joint = prefix + entry.rig_joints.front().substr(own.size());
+        if (rig.find(joint) >= 0) ++found;
+        else lacking.push_back("'" + joint + "'");
+      }
+      const double share = required > 0 ? double(found) / required : 0.0;
+      if (found > 0 && share > best_share) {
+        best_share = share;
+        if (lacking.size() > 6) {
+          const std::size_t more = lacking.size() - 5;
+          lacking.resize(5);
+          lacking.push_back("and " + std::to_string(more) + " more");
+        }
+        best = "preset " + name + " (" + std::to_string(found) + " of its " + std::to_string(required) +
+               " body joints found, lacking " + joined(lacking, ", ") + ")";
+      }
+    }
+  }
+  return best;
+}
+
+// `--map auto-structure` (or a scene's "map": "auto-structure", which the scene reader makes a
+// path): the map from the skeleton's structure instead of a file.
+bool asks_for_structure(const std::string& user_map_path) {
+  if (user_map_path.empty()) return false;
+  const fs::path path(user_map_path);
+  std::error_code error;
+  return path.filename() == kAutoStructureMap && !fs::exists(path, error);
+}
+
+// The map detection gives (presets, then names); when it is not a humanoid because names leave
+// body joints unplayed, the one the skeleton's structure gives (bone_map_structure.h); else the
+// refusal, saying what each way found. A user map file applies over detection and is checked as
+// before; `--map auto-structure` asks for the structure's map alone.
+BoneMap detected_humanoid(const Skeleton& rig, const std::vector<bool>& binds, const std::string& rig_label,
+                          const std::string& user_map_path) {
+  if (asks_for_structure(user_map_path)) {
+    const StructureMap structure = bone_map_from_structure(rig, binds);
+    if (!structure.problem.empty()) {
+      throw io::InputError(rig_label, "not a humanoid rig (bone map from the skeleton's structure, as asked): " + structure.problem);
+    }
+    return checked_humanoid(structure.map, rig, rig_label, "");
+  }
+  BoneMap map = detect_bone_map(rig);
+  if (!user_map_path.empty()) return checked_humanoid(std::move(map), rig, rig_label, user_map_path);
+  const std::vector<std::string> problems = humanoid_problems(rig, map);
+  if (problems.empty()) return map;
+  if (!problems.front().starts_with("no joint plays")) return checked_humanoid(std::move(map), rig, rig_label, "");
+  StructureMap structure = bone_map_from_structure(rig, binds);
+  std::vector<std::string> structure_problems;
+  if (structure.problem.empty()) {
+    structure_problems = humanoid_problems(rig, structure.map);
+    if (structure_problems.empty()) {
+      structure.map.origin = "skeleton structure (the names left " +
+                             problems.front().substr(std::string("no joint plays ").size()) + " unplayed)";
+      return structure.map;
+    }
+  } else {
+    structure_problems.push_back(structure.problem);
+  }
+  const std::string closest = closest_preset(rig);
+  throw io::InputError(rig_label, "not a humanoid rig (bone map from " + map.origin + "): " + joined(problems, "; ") +
+                                      "; closest convention: " + (closest.empty() ? "none (no preset names any joint)" : closest) +
+                                      "; from the skeleton's structure: " + joined(structure_problems, "; ") +
+                                      "; give a bone map with --map FILE (docs/retargeting.md#bone-maps)");
+}
+
+}  // namespace
+
 BoneMap humanoid_bone_map(const Character& character, const std::string& rig_label, const std::string& user_map_path) {
-  if (character.declared_humanoid.empty()) return humanoid_bone_map(character.skeleton, rig_label, user_map_path);
+  if (character.declared_humanoid.empty() || asks_for_structure(user_map_path)) {
+    std::vector<bool> binds = joints_binding_vertices(character);
+    if (std::none_of(binds.begin(), binds.end(), [](bool b) { return b; })) binds.clear();
+    return detected_humanoid(character.skeleton, binds, rig_label, user_map_path);
+  }
   BoneMap map = bone_map_from_declared(character.skeleton, character.declared_humanoid, character.declared_humanoid_convention);
   return checked_humanoid(std::move(map), character.skeleton, rig_label, user_map_path);
 }
 
 BoneMap humanoid_bone_map(const Skeleton& rig, const std::string& rig_label, const std::string& user_map_path) {
-  return checked_humanoid(detect_bone_map(rig), rig, rig_label, user_map_path);
+  return detected_humanoid(rig, {}, rig_label, user_map_path);
 }
 
 std::vector<int> unmapped_joints(const Skeleton& rig, const BoneMap& map) {

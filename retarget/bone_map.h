@@ -6,9 +6,13 @@
 //   1b. the humanoid bone list the character file declares (VRM 0.x and 1.0, see
 //      bone_map_from_declared), taken as the file says, without presets or names;
 //   2. a preset (retarget/presets/*.json) that fits the rig: every body joint the preset names
-//      (pelvis to wrists, canonical 0-21) exists in the rig, hand and face joints where they do,
-//      and the result passes the humanoid check below; among fitting presets the one naming the
-//      most of the rig's joints wins;
+//      (pelvis to wrists, canonical 0-21, except the balls of the feet) exists in the rig, the
+//      balls, hand and face joints where they do, and the result passes the humanoid check below.
+//      A preset whose names share a prefix up to a separator ("mixamorig:", "Character1_",
+//      "Bip01 ") also fits a rig that has another non-empty prefix there ("Character2_",
+//      "Bip001 "), found from the rig joint that ends like the preset's pelvis. Among fitting
+//      presets one that fits with its own prefix wins, then the one naming most of the rig's
+//      joints, then the first by name;
 //   3. detection from joint names: names are normalised (a prefix all the rig's names share up to
 //      a separator dropped, as "Character1_", and anything up to the last ':' in a name,
 //      split into words at separators '_', '.', ' ', '-', at case changes and at digits,
@@ -35,6 +39,8 @@
 //      that leaves the chest carrying no arm and the neck its first joint (see
 //      map_neck_and_head_from_chain in bone_map.cpp). Finger words (thumb, index, middle, ring, pinky/little)
 //      with a number 1-3 (none: 1) map to the finger joints.
+//   4. (humanoid_bone_map only) the skeleton's structure, when names leave body joints unplayed
+//      (bone_map_structure.h).
 //
 // A map may also list followers: rig joints without a canonical role of their own that move
 // rigidly with a mapped joint (a palm split into one bone per finger).
@@ -104,12 +110,22 @@ void override_bone_map(BoneMap& map, const Skeleton& rig, const io::BoneMapFile&
 // rig's left.
 std::vector<std::string> humanoid_problems(const Skeleton& rig, const BoneMap& map);
 
+// The value of `user_map_path` (--map, a scene's "map") that asks for the map from the skeleton's
+// structure (bone_map_structure.h) instead of a file; a file of that name, where one exists, is
+// read as a map.
+inline constexpr const char* kAutoStructureMap = "auto-structure";
+
 // Detects (or takes the preset/user map), applies the user map when `user_map_path` is not empty,
-// and requires a humanoid: throws io::InputError(rig_label, "not a humanoid rig: ...") listing
-// the problems, and io::InputError for a bad user map.
+// and requires a humanoid. When detection leaves body joints unplayed (the names give no complete
+// map) and no user map is given, the map from the skeleton's structure is used if it passes the
+// humanoid check (origin "skeleton structure (the names left ... unplayed)"); with
+// `user_map_path` kAutoStructureMap that map is used alone. Throws
+// io::InputError(rig_label, "not a humanoid rig (bone map from ORIGIN): ...") listing the
+// problems and, where names left joints unplayed, the preset that came closest with the joints
+// it lacked, what the structure found, and how to give a map; io::InputError for a bad user map.
 BoneMap humanoid_bone_map(const Skeleton& rig, const std::string& rig_label, const std::string& user_map_path = {});
 // The same for a character: its declared humanoid (bone_map_from_declared) when the file has one,
-// else detection on its skeleton.
+// else detection on its skeleton, the structure pruning end joints that bind no vertex.
 BoneMap humanoid_bone_map(const Character& character, const std::string& rig_label, const std::string& user_map_path = {});
 
 // Rig joints that play no canonical joint and follow none, in skeleton order.

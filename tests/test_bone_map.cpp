@@ -63,7 +63,8 @@ std::map<std::string, std::string> preset_entries(const std::string& preset) {
 
 TEST(BoneMapTest, EveryPresetLoadsAndNamesOnlyCanonicalJoints) {
   const std::vector<std::string> presets = preset_names();
-  EXPECT_EQ(presets, (std::vector<std::string>{"cesium_man", "cmu_bvh", "mixamo", "rigged_figure", "robot_expressive", "smplx"}));
+  EXPECT_EQ(presets, (std::vector<std::string>{"cesium_man", "cmu_bvh", "humanik", "max_biped", "mixamo", "poser_bvh",
+                                             "rigged_figure", "robot_expressive", "smplx"}));
   for (const std::string& preset : presets) {
     for (const io::BoneMapEntry& entry : load_preset(preset).entries) {
       EXPECT_GE(canonical_index(entry.canonical), 0) << preset << ": " << entry.canonical;
