@@ -102,3 +102,28 @@ def test_example_scene_runs_in_memory():
     result = odyssey.scene_arrays(example)
     assert set(result["cameras"]) == {"orbit", "corner"}
     assert result["cameras"]["orbit"]["visibs"].any()
+
+
+def test_long_calls_release_the_gil():
+    import threading
+    import time
+
+    done = threading.Event()
+    span = []
+
+    def work():
+        start = time.perf_counter()
+        odyssey.scene_arrays(small_scene(seconds=2.0))
+        span.append(time.perf_counter() - start)
+        done.set()
+
+    worker = threading.Thread(target=work)
+    ticks = [time.perf_counter()]
+    worker.start()
+    while not done.is_set():  # Python bytecode: it runs only while the worker does not hold the GIL
+        ticks.append(time.perf_counter())
+    worker.join()
+    longest_gap = max(b - a for a, b in zip(ticks, ticks[1:]))
+    # Held through the call, the GIL would stop this loop for the whole run; released, only for the
+    # Python around it and the interpreter's switch interval (5 ms).
+    assert longest_gap < 0.5 * span[0], (longest_gap, span[0])
