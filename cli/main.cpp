@@ -35,6 +35,9 @@ constexpr Command kCommands[] = {
     {"batch", "retarget motion libraries onto character libraries (or a manifest's jobs): parallel, resumable, sharded",
      odyssey::cli::run_batch},
     {"batch-report", "merge the journals of a batch's shards into one report", odyssey::cli::run_batch_report},
+    {"dataset", "make a dataset from a recipe: sampled shots as PointOdyssey sequences, split, resumable, sharded",
+     odyssey::cli::run_dataset},
+    {"dataset-report", "write a dataset's manifest from the journals of its shards", odyssey::cli::run_dataset_report},
 };
 
 void print_usage(std::FILE* stream) {

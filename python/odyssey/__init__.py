@@ -37,3 +37,10 @@ __all__ = [
     "BodyModel", "Character", "Error", "InputError", "Motion", "Retargeted", "UsageError", "example_scene", "inspect",
     "load_amass", "load_bvh", "retarget", "run_batch", "run_scene", "scene_arrays",
 ]
+
+try:  # built where the source tree has the dataset library (dataset/)
+    from ._odyssey import run_dataset  # noqa: F401
+except ImportError:  # pragma: no cover - depends on the build
+    pass
+else:
+    __all__.append("run_dataset")

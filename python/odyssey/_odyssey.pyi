@@ -144,3 +144,8 @@ def run_batch(out: PathLike, motions: Union[None, PathLike, Sequence[PathLike]] 
               betas: str = "fit", bvh_units: Union[None, str, float] = None, outputs: str = "glb,report",
               workers: int = 1, timeout_s: float = 0.0, max_memory_gib: Optional[float] = None, shard: str = "1/1",
               gates: Optional[Mapping[str, float]] = None, progress: Progress = None) -> Dict[str, Any]: ...
+
+def run_dataset(recipe: Union[PathLike, Mapping[str, Any]], out: PathLike, *, count: Optional[int] = None,
+                workers: int = 1, timeout_s: float = 0.0, max_memory_gib: Optional[float] = None, shard: str = "1/1",
+                base_dir: Optional[PathLike] = None, progress: Progress = None) -> Dict[str, Any]:
+    """Makes a dataset from a recipe as `odyssey dataset` does (present where the build has the dataset library)."""
