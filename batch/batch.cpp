@@ -105,6 +105,7 @@ std::size_t default_memory_limit(int workers) {
 
 // Every input file of a job: its own, and for a scene job the files its actors and props name.
 std::vector<std::string> job_inputs(const Job& job) {
+  if (job.task) return job.task->inputs();
   std::vector<std::string> files;
   const auto request_files = [&](const scene::RetargetRequest& request) {
     files.push_back(request.motion_path);
@@ -139,6 +140,28 @@ std::vector<std::string> job_inputs(const Job& job) {
   std::sort(files.begin(), files.end());
   files.erase(std::unique(files.begin(), files.end()), files.end());
   return files;
+}
+
+// The paths a task job's record says it placed under DIR (only relative ones inside it).
+std::vector<std::string> placed_paths(const nlohmann::json& record) {
+  std::vector<std::string> paths;
+  if (!record.contains("placed") || !record["placed"].is_array()) return paths;
+  for (const nlohmann::json& path : record["placed"]) {
+    if (!path.is_string()) continue;
+    const fs::path relative(path.get<std::string>());
+    if (!relative.empty() && !relative.is_absolute() && relative.lexically_normal() == relative &&
+        !relative.string().starts_with("..")) {
+      paths.push_back(relative.string());
+    }
+  }
+  return paths;
+}
+
+// Whether a done job's outputs are still where its record says.
+bool outputs_present(const Job& job, const nlohmann::json& record, const std::string& out) {
+  if (!job.task) return fs::is_directory(fs::path(out) / "jobs" / job.name);
+  const std::vector<std::string> placed = placed_paths(record);
+  return !placed.empty() && std::all_of(placed.begin(), placed.end(), [&](const std::string& path) { return fs::exists(fs::path(out) / path); });
 }
 
 }  // namespace
@@ -233,7 +256,7 @@ BatchSummary run_batch(std::vector<Job> jobs, const BatchOptions& options, const
     }
   }
   const std::string shard = options.shard.whole() ? "" : options.shard.text();
-  fs::create_directories(fs::path(options.out) / "jobs");
+  fs::create_directories(options.out);
   Journal journal(options.out, shard, options.settings, static_cast<long>(mine.size()));
   const fs::path staging = fs::path(options.out) / ".staging" / (shard.empty() ? "whole" : "shard-" + std::to_string(options.shard.index) + "-of-" + std::to_string(options.shard.count));
   fs::remove_all(staging);
@@ -263,7 +286,11 @@ BatchSummary run_batch(std::vector<Job> jobs, const BatchOptions& options, const
     nlohmann::ordered_json inputs = nlohmann::ordered_json::object();
     std::string key_text = kVersion;
     key_text += "\n" + job.name + "\n" + job.scene_path + "\n";
-    if (job.scene_path.empty()) key_text += request_settings_json(job.request, job.outputs).dump();
+    if (job.task) {
+      key_text += job.task->kind() + "\n" + job.task->key_text();
+    } else if (job.scene_path.empty()) {
+      key_text += request_settings_json(job.request, job.outputs).dump();
+    }
     bool readable = true;
     try {
       for (const std::string& path : job_inputs(job)) {
@@ -278,8 +305,9 @@ BatchSummary run_batch(std::vector<Job> jobs, const BatchOptions& options, const
     keyed[i]["key"] = readable ? hash_text(key_text) : "";
     keyed[i]["inputs"] = inputs;
     const auto found = journal.records().find(job.name);
+    if (job.task && found != journal.records().end()) mine[i].previously_placed = placed_paths(found->second);
     if (readable && found != journal.records().end() && found->second.value("status", "") == "done" &&
-        found->second.value("key", "") == keyed[i]["key"] && fs::is_directory(fs::path(options.out) / "jobs" / job.name)) {
+        found->second.value("key", "") == keyed[i]["key"] && outputs_present(job, found->second, options.out)) {
       ++counts.done;
       ++counts.resumed;
       if (!gate_flags(found->second.value("metrics", nlohmann::json()), options.gates).empty()) ++counts.flagged;
@@ -330,8 +358,10 @@ BatchSummary run_batch(std::vector<Job> jobs, const BatchOptions& options, const
     nlohmann::ordered_json record;
     record["job"] = job.name;
     record["key"] = keyed[static_cast<std::size_t>(index)]["key"];
-    record["kind"] = job.scene_path.empty() ? "retarget" : "scene";
-    if (job.scene_path.empty()) {
+    record["kind"] = job.task ? job.task->kind() : job.scene_path.empty() ? "retarget" : "scene";
+    if (job.task) {
+      // The task's own record says what it used.
+    } else if (job.scene_path.empty()) {
       record["motion"] = job.request.motion_path;
       record["character"] = job.request.character_path;
       record["quality"] = retarget::quality_name(job.request.quality);
@@ -346,8 +376,13 @@ BatchSummary run_batch(std::vector<Job> jobs, const BatchOptions& options, const
       if (!gate_flags(record.value("metrics", nlohmann::json()), options.gates).empty()) ++counts.flagged;
     } else {
       ++counts.failed;
+      // Outputs of other inputs.
       std::error_code error;
-      fs::remove_all(fs::path(options.out) / "jobs" / job.name, error);  // outputs of other inputs
+      if (job.task) {
+        for (const std::string& path : job.previously_placed) fs::remove_all(fs::path(options.out) / path, error);
+      } else {
+        fs::remove_all(fs::path(options.out) / "jobs" / job.name, error);
+      }
     }
     journal.append(record);
     const nlohmann::json as_json(record);

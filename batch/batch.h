@@ -14,6 +14,7 @@
 // renames that folder onto DIR/jobs/<name> (an old folder there is renamed away first and
 // removed after): a job's files appear together or not at all. Then its record is appended to the
 // journal. A rerun removes its shard's staging folder (what a killed run left) before starting.
+// A task job (job.h, JobTask) places each of its outputs the same way at its own path under DIR.
 //
 // Shards. Jobs are ordered by name; shard I of N runs those at positions I-1, I-1+N, ... A job's
 // outputs depend only on its inputs and settings, never on the worker, the shard or the order, so

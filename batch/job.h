@@ -17,6 +17,8 @@
 // (CSV: its line) and the column.
 #pragma once
 
+#include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -38,12 +40,32 @@ std::optional<JobOutputs> parse_job_outputs(const std::string& list);
 std::string job_outputs_text(const JobOutputs& outputs);
 inline constexpr const char* kJobOutputNames = "glb, report, trajectories, point-cache, preview";
 
+// A job that does its own work (a dataset's sequence: dataset/). Its files are not one folder
+// under DIR/jobs but any paths under DIR: run() writes them under `staging` at the relative paths
+// they take under DIR and lists those paths in the record's "placed"; the worker then moves each
+// onto DIR/<path> (a path there from the job's previous run is replaced, and one the new run does
+// not place is removed), so each appears whole or not at all.
+class JobTask {
+ public:
+  virtual ~JobTask() = default;
+  virtual std::string kind() const = 0;  // the record's "kind"
+  // What the outputs depend on besides the files inputs() names (settings, a recipe), for the key.
+  virtual std::string key_text() const = 0;
+  virtual std::vector<std::string> inputs() const = 0;
+  // Returns the record's fields: "placed" (required), "frames", "metrics" and any of its own.
+  // Throws with a one-line message when the job fails.
+  virtual nlohmann::ordered_json run(const std::string& staging, scene::LoadCache& cache) const = 0;
+};
+
 struct Job {
   std::string name;        // its folder under DIR/jobs: '/'-separated, relative, no "." or ".." parts
   std::string scene_path;  // a scene job runs this file (its own outputs, into the job's folder)
   scene::RetargetRequest request;  // a retarget job: motion onto character
   JobOutputs outputs;
   std::string source;      // where the job came from, for errors: "lists" or "manifest.csv: line 4"
+  std::shared_ptr<const JobTask> task;  // set: a job of its own kind (above); the fields before are unused
+  // A task's paths under DIR from its last finished run (the batch fills this from the journal).
+  std::vector<std::string> previously_placed;
 };
 
 // Every job of a batch shares these unless a manifest row says otherwise.

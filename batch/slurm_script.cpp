@@ -17,8 +17,8 @@ std::string slurm_script(const SlurmScriptOptions& options) {
   char time[32];
   std::snprintf(time, sizeof time, "%ld:%02ld:00", options.time_limit_minutes / 60, options.time_limit_minutes % 60);
   std::string script = "#!/bin/bash\n";
-  script += "# Written by odyssey batch --slurm-script: submit with `sbatch FILE`, then merge the shards'\n";
-  script += "# reports with `odyssey batch-report OUT` once every task has ended.\n";
+  script += "# Written by odyssey --slurm-script: submit with `sbatch FILE`, then merge the shards'\n";
+  script += "# reports with `" + options.report_command + " OUT` once every task has ended.\n";
   script += "#SBATCH --job-name=" + options.job_name + "\n";
   script += "#SBATCH --array=1-" + std::to_string(options.tasks) + "\n";
   script += "#SBATCH --ntasks=1\n";

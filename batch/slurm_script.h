@@ -1,7 +1,8 @@
 // An sbatch script that runs one batch as a Slurm job array: task k of the array runs shard k of
 // N (`--shard slurm` reads SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_MIN and SLURM_ARRAY_TASK_COUNT),
 // with `--jobs` workers on the task's CPUs. Every shard writes into the same output folder, each
-// with its own journal; `odyssey batch-report DIR` then renders the whole batch's report.
+// with its own journal; the report command (`odyssey batch-report DIR`) then renders the whole
+// batch's report.
 #pragma once
 
 #include <string>
@@ -19,6 +20,7 @@ struct SlurmScriptOptions {
   std::string working_folder;  // where relative paths in the command resolve
   std::string log_folder;      // slurm-<array job>_<task>.log
   std::vector<std::string> command;  // the batch command: program and arguments, before the shard options
+  std::string report_command = "odyssey batch-report";  // run on OUT once every task has ended
 };
 
 // The script's text. Arguments are single-quoted for the shell.

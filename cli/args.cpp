@@ -18,6 +18,11 @@ Args& Args::flag(const std::string& name, const std::string& help) {
   return *this;
 }
 
+Args& Args::optional_positional(const std::string& name, const std::string& help) {
+  positionals_.push_back({name, name, help, std::nullopt, false, false, true});
+  return *this;
+}
+
 Args& Args::positional(const std::string& name, const std::string& help) {
   positionals_.push_back({name, name, help, std::nullopt, false});
   return *this;
@@ -93,7 +98,7 @@ bool Args::parse(const std::vector<std::string>& arguments) {
       values_[positionals_[next_positional++].name] = argument;
     }
   }
-  if (next_positional < positionals_.size()) throw UsageError("missing argument " + positionals_[next_positional].name);
+  if (next_positional < positionals_.size() && !positionals_[next_positional].optional) throw UsageError("missing argument " + positionals_[next_positional].name);
   if (rest_ && lists_[rest_->name].empty()) throw UsageError("missing argument " + rest_->value_name);
   return true;
 }
@@ -143,7 +148,7 @@ bool Args::get_flag(const std::string& name) const { return flags_.count(name) >
 std::string Args::help() const {
   std::ostringstream out;
   out << "usage: odyssey " << command_;
-  for (const Spec& spec : positionals_) out << ' ' << spec.name;
+  for (const Spec& spec : positionals_) out << ' ' << (spec.optional ? "[" + spec.name + "]" : spec.name);
   if (rest_) out << ' ' << rest_->value_name;
   if (!options_.empty()) out << " [options]";
   out << "\n\n" << summary_ << "\n";

@@ -25,6 +25,8 @@ class Args {
                std::optional<std::string> default_value = std::nullopt);
   Args& flag(const std::string& name, const std::string& help);
   Args& positional(const std::string& name, const std::string& help);
+  // A last positional argument that may be left out (has() tells).
+  Args& optional_positional(const std::string& name, const std::string& help);
   // `--name A B C ...`: every argument up to the next that starts with "--" (a shell glob expands
   // to many); the option may also repeat. get_list() returns them all, in order.
   Args& list_option(const std::string& name, const std::string& value_name, const std::string& help);
@@ -50,6 +52,7 @@ class Args {
     std::optional<std::string> default_value;
     bool is_flag = false;
     bool is_list = false;
+    bool optional = false;
   };
   const Spec* find_option(const std::string& name) const;
   const Spec* find(const std::string& name) const;

@@ -18,6 +18,8 @@ int run_point_cache(const std::vector<std::string>& arguments);
 int run_scene(const std::vector<std::string>& arguments);
 int run_batch(const std::vector<std::string>& arguments);
 int run_batch_report(const std::vector<std::string>& arguments);
+int run_dataset(const std::vector<std::string>& arguments);
+int run_dataset_report(const std::vector<std::string>& arguments);
 int run_render(const std::vector<std::string>& arguments);
 
 }  // namespace odyssey::cli

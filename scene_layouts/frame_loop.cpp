@@ -156,6 +156,7 @@ struct FrameLoop::CameraState {
   // Triangle ranges of the list, [end, owner): owner >= 0 an actor, -1 the props.
   std::vector<std::pair<std::uint32_t, int>> owner_ranges;
   std::array<std::size_t, 5> code_counts{};
+  std::vector<std::size_t> actor_visible;  // per actor: its visible point-frames
   std::vector<long> actor_frames_culled;
 };
 
@@ -287,6 +288,7 @@ FrameLoop::FrameLoop(std::span<const StreamActor> actors, const StreamProps* pro
   for (std::size_t c = 0; c < cameras.size(); ++c) {
     CameraState& out = cameras_state_[c];
     out.actor_frames_culled.assign(actors.size(), 0);
+    out.actor_visible.assign(actors.size(), 0);
     if (!cameras[c].tracks) continue;
     out.trajs_2d.resize(chunk * n_ * 2);
     out.valids.resize(chunk * n_);
@@ -555,6 +557,11 @@ void FrameLoop::classify(std::size_t c, const CameraFrameCallback& on_frame) {
     for (const auto& counts : block_counts_) {
       for (int k5 = 0; k5 < 5; ++k5) out.code_counts[k5] += counts[k5];
     }
+    // Points are numbered actor after actor.
+    for (std::size_t a = 0, first = 0; a < actors; first += actors_[a].points.size(), ++a) {
+      out.actor_visible[a] += static_cast<std::size_t>(
+          std::count(code + first, code + first + actors_[a].points.size(), static_cast<std::uint8_t>(io::kVisible)));
+    }
     const Eigen::Matrix3d kk = k.matrix();
     const Eigen::Matrix4d e = pose.extrinsics();
     for (int r = 0; r < 3; ++r) {
@@ -613,6 +620,11 @@ StreamSummary FrameLoop::summary() const {
     s.occluded_by_actor_fraction = counts[io::kOccludedByActor] / point_frames;
     s.occluded_by_prop_fraction = counts[io::kOccludedByProp] / point_frames;
     s.valid_fraction = s.visible_fraction + s.occluded_by_actor_fraction + s.occluded_by_prop_fraction;
+    s.actor_visible_fraction.assign(actors_.size(), 0.0);
+    for (std::size_t a = 0; a < actors_.size(); ++a) {
+      const double actor_point_frames = static_cast<double>(frames_) * static_cast<double>(actors_[a].points.size());
+      if (actor_point_frames > 0) s.actor_visible_fraction[a] = static_cast<double>(cameras_state_[c].actor_visible[a]) / actor_point_frames;
+    }
   }
   return summary;
 }

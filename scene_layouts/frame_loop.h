@@ -144,6 +144,7 @@ struct CameraStreamSummary {
   std::string name;
   double valid_fraction = 0, visible_fraction = 0;       // of point-frames
   double occluded_by_actor_fraction = 0, occluded_by_prop_fraction = 0;
+  std::vector<double> actor_visible_fraction;            // per actor: of its point-frames, those visible
   std::vector<long> actor_frames_culled;                 // per actor: frames whose mesh it skipped
 };
 

@@ -206,7 +206,8 @@ StreamProps build_props(const std::vector<Prop>& props, const std::vector<PropGe
   return out;
 }
 
-void gather_props(const Scene& scene, const std::vector<PlacedActor>& actors, std::vector<Prop>& props, std::vector<PropGeometry>& geometry) {
+void gather_props(const Scene& scene, const std::vector<PlacedActor>& actors, std::vector<Prop>& props, std::vector<PropGeometry>& geometry,
+                  std::vector<std::string>& skipped) {
   props = scene.props;
   geometry.clear();
   for (const Prop& prop : props) geometry.push_back(load_prop_geometry(prop));
@@ -245,8 +246,9 @@ void gather_props(const Scene& scene, const std::vector<PlacedActor>& actors, st
     if (reach >= kMinimumScatterPath) request.paths.push_back(track);
   }
   if (scatter.on_paths > 0 && request.paths.empty()) {
-    throw io::InputError(scene_file(scene), "scatter.on_paths: no actor's root gets " + std::to_string(kMinimumScatterPath) +
-                                                " m or more from its start: there is no path to put props on");
+    request.on_paths = 0;
+    skipped.push_back("scatter.on_paths: no actor's root gets " + std::to_string(static_cast<int>(kMinimumScatterPath * 100)) +
+                      " cm from its start, so the props meant for paths went in the region");
   }
   std::vector<int> chosen(scatter.count);
   for (int k = 0; k < scatter.count; ++k) {

@@ -52,9 +52,10 @@ PropGeometry load_prop_geometry(const Prop& prop);
 StreamProps build_props(const std::vector<Prop>& props, const std::vector<PropGeometry>& geometry);
 
 // The scene's props followed by its scattered ones (placed on the actors' paths and in the
-// region), with their geometry. `actors` are placed on the timeline.
+// region), with their geometry. `actors` are placed on the timeline. When no actor's root goes
+// 1 m from its start, the props meant for paths go in the region, and `skipped` says so.
 void gather_props(const Scene& scene, const std::vector<PlacedActor>& actors, std::vector<Prop>& props,
-                  std::vector<PropGeometry>& geometry);
+                  std::vector<PropGeometry>& geometry, std::vector<std::string>& skipped);
 
 // Simulates the dynamic props among `props` over the shot's frames (actors placed), filling
 // shot.props.motion (left empty when no prop is dynamic), shot.prop_reports and shot.skipped.

@@ -112,7 +112,8 @@ struct SceneForces {
 // `count` props drawn (seeded) from `props` (templates; their positions and yaws are ignored),
 // stood on the ground (z = 0) without overlapping each other or the actors where they stand at
 // frame 0; the first `on_paths` lie on the root paths of the actors that get 1 m or more from
-// their start (prop i on the i mod P-th of those P paths), the rest anywhere in `region` (x, y). They are named "<template name>_<k>" and come after the
+// their start (prop i on the i mod P-th of those P paths; with no such path, in the region), the
+// rest anywhere in `region` (x, y). They are named "<template name>_<k>" and come after the
 // scene's own props.
 struct SceneScatter {
   int count = 0;

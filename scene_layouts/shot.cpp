@@ -211,7 +211,7 @@ Shot prepare_shot(const Scene& scene, const PrepareOptions& options, const Progr
   place_actors(scene, shot.frames, shot.actors);
   std::vector<Prop> props;
   std::vector<PropGeometry> geometry;
-  gather_props(scene, shot.actors, props, geometry);
+  gather_props(scene, shot.actors, props, geometry, shot.skipped);
   std::set<std::string> names;
   for (const Prop& prop : props) {
     if (!names.insert(prop.name).second) throw std::invalid_argument("scene: two props are called '" + prop.name + "' (a scattered prop is <template>_<k>)");
