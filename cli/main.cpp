@@ -7,6 +7,7 @@
 #include "cli/args.h"
 #include "cli/commands.h"
 #include "mocap_io/input_error.h"
+#include "mocap_io/output_file.h"
 
 namespace {
 
@@ -58,6 +59,8 @@ int main(int argc, char** argv) {
     return 0;
   }
   const std::vector<std::string> arguments(argv + 2, argv + argc);
+  // Ctrl-C or a scheduler's SIGTERM leaves no staged file behind.
+  odyssey::io::install_interrupt_cleanup();
   for (const Command& command : kCommands) {
     if (name != command.name) continue;
     try {

@@ -11,9 +11,8 @@
 
 namespace odyssey::io {
 
-// A file open for writing at "<target>.partial-<pid>-<n>": commit() closes it and renames it onto
-// the target; if never committed, the destructor removes it. Errors throw InputError naming the
-// target.
+// A file open for writing at temporary_name(target): commit() closes it and renames it onto the
+// target; if never committed, the destructor removes it. Errors throw InputError naming the target.
 class TempFile {
  public:
   explicit TempFile(std::string target);
@@ -40,11 +39,18 @@ class TempFile {
 // file or a file by a folder.
 void require_replaceable_output(const std::string& target, bool folder = false);
 
+// Throws InputError naming `output` when it is one of `inputs` (empty ones skipped): the same path
+// made absolute and normal, or the same file by device and inode (links, other spellings).
+void require_not_an_input(const std::string& output, const std::vector<std::string>& inputs);
+
 // Outputs that appear together or not at all: the one way a command, a scene or a batch job
 // commits files. stage() names a temporary path beside each target (same folder, so the rename
-// cannot cross file systems) for a writer to fill; commit() renames them all into place, in order,
-// and when one rename fails removes the ones already renamed and rethrows. Temporaries of a set
-// never committed are removed when it goes.
+// cannot cross file systems) for a writer to fill. commit() replaces the previous outputs only
+// when every new one goes in: it checks every target again (something may have appeared there
+// since stage()), keeps each previous output under an aside name (a hard link for a file, so the
+// file never disappears; the folder itself for a folder), renames the new ones in, and when any
+// step fails puts every previous output back, removes the new ones and throws naming the target
+// that blocked it. Temporaries of a set never committed are removed when it goes.
 class StagedOutputs {
  public:
   StagedOutputs() = default;
@@ -71,6 +77,34 @@ class StagedOutputs {
   };
   std::vector<Entry> entries_;
 };
+
+// The name a temporary of `target` gets: "<target>.partial-<pid>-<n>-<host>", <n> distinguishing
+// the temporaries of one process and <host> eight hex digits of a hash of the host name, so that a
+// sweep on one machine of a shared file system never takes another machine's process IDs for its
+// own. A previous output kept aside during a commit is "<target>.previous-<pid>-<n>-<host>".
+std::string temporary_name(const std::string& target);
+
+// Creates the temporary `path` (mode as std::fopen's, nullptr on failure with errno set) and lists
+// it until forget_temporary(path), so that an interrupt removes it (install_interrupt_cleanup). For
+// writers that keep temporaries of their own beside a staged file (the trajectory file's spools);
+// TempFile and StagedOutputs list theirs.
+std::FILE* create_temporary_file(const std::string& path, const char* mode);
+void forget_temporary(const std::string& path);
+
+// Makes SIGINT and SIGTERM stop the process and remove every temporary it has listed (staged
+// files and folders, TempFiles, spools) before exiting with 128 + the signal number (130, 143).
+// The handler only writes the signal number to a pipe; a thread waiting on it removes the files
+// holding the listing's lock, so a commit in progress finishes (or rolls back) first and no
+// temporary is created after the removal. A child made by fork() gets the default actions back
+// and an empty listing (a batch worker removes nothing of its parent's). Call once, from main().
+void install_interrupt_cleanup();
+
+// What a process that no longer exists left in `folder` (killed by SIGKILL, or a crash): files and
+// folders named as temporary_name() names them, of this host, whose process ID is not running
+// and is not ours. A kept-aside previous output goes back in place when its target is missing
+// and is removed otherwise; temporaries are removed. Returns how many entries were handled. Every
+// TempFile and StagedOutputs::stage sweeps its target's folder once per process.
+int sweep_leftovers(const std::string& folder);
 
 // The whole file at once, through a TempFile.
 void write_file_atomically(const std::string& path, std::span<const std::byte> bytes);

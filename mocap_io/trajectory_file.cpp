@@ -63,12 +63,13 @@ class Spool {
         temp_(target + ".partial-" + std::to_string(::getpid()) + "-" + key_),
         dtype_(dtype),
         frame_shape_(std::move(frame_shape)),
-        file_(std::fopen(temp_.c_str(), "w+b")) {
+        file_(create_temporary_file(temp_, "w+b")) {
     if (!file_) throw InputError(target_, "cannot create temporary file " + temp_ + ": " + std::strerror(errno));
   }
   ~Spool() {
     std::fclose(file_);
     std::remove(temp_.c_str());
+    forget_temporary(temp_);
   }
   Spool(const Spool&) = delete;
   Spool& operator=(const Spool&) = delete;

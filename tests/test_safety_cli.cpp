@@ -1,0 +1,276 @@
+// Nothing lost, nothing left behind: a rerun that fails at its commit keeps the previous run's
+// outputs byte for byte; SIGINT and SIGTERM remove everything a run staged and exit 130 / 143; what
+// a SIGKILL left is swept by the next run into the same folder.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "cli_runner.h"
+#include "mocap_io/input_error.h"
+#include "mocap_io/output_file.h"
+#include "test_support.h"
+
+namespace odyssey {
+namespace {
+
+namespace fs = std::filesystem;
+using test_support::contains;
+
+const std::string kData = ODYSSEY_DATA_DIR;
+
+std::string read_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// Every file under `dir` with its bytes, by path relative to `dir`.
+std::map<std::string, std::string> snapshot(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (entry.is_regular_file()) files[fs::relative(entry.path(), dir).string()] = read_bytes(entry.path());
+  }
+  return files;
+}
+
+// Names under `dir` that a run stages or keeps aside while committing.
+std::vector<std::string> staged_leftovers(const fs::path& dir) {
+  std::vector<std::string> found;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (contains(name, ".partial-") || contains(name, ".previous-")) found.push_back(entry.path().string());
+  }
+  return found;
+}
+
+// The odyssey binary run in the background, its output in a log, so that a test can act on the
+// file system or send a signal while it works.
+class BackgroundCli {
+ public:
+  BackgroundCli(const std::string& arguments, const fs::path& log) : log_(log) {
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      const std::string command = "exec " + std::string(ODYSSEY_CLI) + " " + arguments + " > '" + log.string() + "' 2>&1";
+      ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+  }
+  ~BackgroundCli() {
+    if (pid_ > 0 && !waited_) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+  }
+  pid_t pid() const { return pid_; }
+  // Exit code, or 128 + the signal that ended it.
+  int wait() {
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    waited_ = true;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  std::string output() const { return read_bytes(log_); }
+
+ private:
+  fs::path log_;
+  pid_t pid_ = -1;
+  bool waited_ = false;
+};
+
+// Waits (up to a minute) until a staged file of the run appears under `dir`: its outputs' checks
+// are behind it and its sinks are open.
+bool wait_for_staging(const fs::path& dir) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < until) {
+    std::error_code ignored;
+    for (const auto& entry : fs::directory_iterator(dir, ignored)) {
+      if (contains(entry.path().filename().string(), ".partial-")) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return false;
+}
+
+// Two walkers, a box and two cameras for `seconds`: a short one finishes in about a second, a
+// long one streams its frames for several.
+fs::path write_scene(const fs::path& dir, double seconds, int points) {
+  const fs::path path = dir / "walkers.json";
+  std::ofstream(path) << R"({"version": 1, "name": "walkers", "seconds": )" << seconds << R"(, "seed": 3,
+  "actors": [
+    {"name": "a", "motion": ")" << kData << R"(/mocap/cmu_walk_cgspeed.bvh", "bvh_units": "cmu", "quality": "fast",
+     "character": ")" << kData << R"(/characters/RiggedFigure.glb", "placement": {"x": 0, "y": 0, "yaw": 90}},
+    {"name": "b", "motion": ")" << kData << R"(/mocap/cmu_walk_cgspeed.bvh", "bvh_units": "cmu", "quality": "fast",
+     "character": ")" << kData << R"(/characters/CesiumMan.glb", "placement": {"x": 0, "y": -1.5, "yaw": 90}}],
+  "props": [{"type": "ground", "name": "floor", "size": [12, 12]},
+            {"type": "box", "name": "crate", "size": [0.5, 0.5, 0.5], "position": [1.0, 1.0, 0]}],
+  "cameras": [{"type": "orbit", "name": "orbit", "width": 320, "height": 180, "period": 4},
+              {"type": "static", "name": "side", "width": 320, "height": 180, "position": [0, -6, 1.5], "target": [0, 0, 1]}],
+  "outputs": {"points_per_actor": )" << points << R"(, "camera_paths": true, "glb": true, "report": true}})";
+  return path;
+}
+
+// --- commit ------------------------------------------------------------------------------------
+
+TEST(StagedCommitTest, AFailedCommitPutsEveryPreviousOutputBack) {
+  const fs::path dir = test_support::scratch_dir("safety");
+  std::ofstream(dir / "a.json") << "old a";
+  std::ofstream(dir / "b.json") << "old b";
+  fs::create_directories(dir / "seq" / "depths");
+  std::ofstream(dir / "seq" / "depths" / "d.png") << "old depth";
+  {
+    io::StagedOutputs staged;
+    io::write_file_atomically(staged.stage((dir / "a.json").string()), std::string("new a"));
+    const fs::path seq = staged.stage_folder((dir / "seq").string());
+    std::ofstream(seq / "anno.npz") << "new anno";
+    staged.stage((dir / "b.json").string());  // never written: its rename fails, after a and seq went in
+    io::write_file_atomically(staged.stage((dir / "c.json").string()), std::string("new c"));
+    const std::string message = test_support::message_of<io::InputError>([&] { staged.commit(); });
+    EXPECT_TRUE(contains(message, (dir / "b.json").string() + ": cannot rename")) << message;
+    EXPECT_TRUE(contains(message, "the previous outputs are back in place")) << message;
+  }
+  EXPECT_EQ(read_bytes(dir / "a.json"), "old a");
+  EXPECT_EQ(read_bytes(dir / "b.json"), "old b");
+  EXPECT_FALSE(fs::exists(dir / "c.json"));
+  EXPECT_EQ(read_bytes(dir / "seq" / "depths" / "d.png"), "old depth");
+  EXPECT_FALSE(fs::exists(dir / "seq" / "anno.npz"));
+  EXPECT_TRUE(staged_leftovers(dir).empty()) << staged_leftovers(dir).front();
+}
+
+TEST(StagedCommitTest, ATargetBlockedAfterStagingReplacesNothingAndIsNamed) {
+  const fs::path dir = test_support::scratch_dir("safety");
+  std::ofstream(dir / "a.json") << "old a";
+  std::ofstream(dir / "b.json") << "old b";
+  {
+    io::StagedOutputs staged;
+    io::write_file_atomically(staged.stage((dir / "a.json").string()), std::string("new a"));
+    io::write_file_atomically(staged.stage((dir / "b.json").string()), std::string("new b"));
+    fs::remove(dir / "b.json");
+    fs::create_directories(dir / "b.json" / "inside");
+    const std::string message = test_support::message_of<io::InputError>([&] { staged.commit(); });
+    EXPECT_TRUE(contains(message, (dir / "b.json").string() + ": exists and is a folder")) << message;
+    EXPECT_TRUE(contains(message, "nothing was replaced")) << message;
+  }
+  EXPECT_EQ(read_bytes(dir / "a.json"), "old a");
+  EXPECT_TRUE(fs::is_directory(dir / "b.json" / "inside"));
+  EXPECT_TRUE(staged_leftovers(dir).empty()) << staged_leftovers(dir).front();
+
+  // Unblocked, the same outputs replace the previous ones and nothing is kept aside.
+  fs::remove_all(dir / "b.json");
+  io::StagedOutputs again;
+  io::write_file_atomically(again.stage((dir / "a.json").string()), std::string("new a"));
+  const fs::path seq = again.stage_folder((dir / "seq").string());
+  std::ofstream(seq / "x") << "x";
+  again.commit();
+  EXPECT_EQ(read_bytes(dir / "a.json"), "new a");
+  EXPECT_EQ(read_bytes(dir / "seq" / "x"), "x");
+  EXPECT_TRUE(staged_leftovers(dir).empty()) << staged_leftovers(dir).front();
+}
+
+TEST(SafetyCliTest, ARerunBlockedAtCommitKeepsThePreviousOutputs) {
+  const fs::path dir = test_support::scratch_dir("safety_cli");
+  const fs::path scene = write_scene(dir, 20, 2000), out = dir / "out";
+  const test_support::CliResult first = test_support::run_cli("scene " + scene.string() + " --out " + out.string() + " --quiet");
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  std::map<std::string, std::string> before = snapshot(out);
+  ASSERT_TRUE(before.contains("trajectories_orbit.npz") && before.contains("scene.glb") && before.contains("camera_side.json"));
+
+  // Once the rerun's checks are behind it, its report's path becomes a folder.
+  BackgroundCli rerun("scene " + scene.string() + " --out " + out.string() + " --quiet", dir / "rerun.log");
+  ASSERT_TRUE(wait_for_staging(out));
+  fs::remove(out / "report.json");
+  fs::create_directories(out / "report.json" / "blocker");
+  before.erase("report.json");
+  EXPECT_EQ(rerun.wait(), 1) << rerun.output();
+  EXPECT_TRUE(contains(rerun.output(), (out / "report.json").string() + ": exists and is a folder, not a regular file"))
+      << rerun.output();
+  std::map<std::string, std::string> after = snapshot(out);
+  after.erase("report.json/blocker");
+  EXPECT_EQ(after.size(), before.size());
+  for (const auto& [name, bytes] : before) {
+    EXPECT_TRUE(after.contains(name) && after[name] == bytes) << name << " changed or went missing";
+  }
+  EXPECT_TRUE(staged_leftovers(out).empty()) << staged_leftovers(out).front();
+}
+
+// --- interrupts --------------------------------------------------------------------------------
+
+TEST(SafetyCliTest, SigintAndSigtermRemoveEverythingStaged) {
+  const fs::path dir = test_support::scratch_dir("safety_cli");
+  const fs::path scene = write_scene(dir, 20, 4000), out = dir / "out";
+  fs::create_directories(out);
+  std::ofstream(out / "keep.txt") << "not ours";
+  for (const auto& [signal, code] : {std::pair{SIGINT, 130}, std::pair{SIGTERM, 143}}) {
+    for (const char* layout : {"files", "pointodyssey"}) {
+      BackgroundCli run("scene " + scene.string() + " --out " + out.string() + " --layout " + layout + " --quiet",
+                        dir / "run.log");
+      ASSERT_TRUE(wait_for_staging(out));
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));  // frames under way
+      ::kill(run.pid(), signal);
+      EXPECT_EQ(run.wait(), code) << run.output();
+      EXPECT_TRUE(contains(run.output(), signal == SIGINT ? "interrupted by SIGINT" : "interrupted by SIGTERM")) << run.output();
+      EXPECT_EQ(test_support::files_in(out), std::vector<std::string>{"keep.txt"}) << layout;
+    }
+  }
+}
+
+TEST(SafetyCliTest, WhatASigkillLeftIsSweptByTheNextRun) {
+  const fs::path dir = test_support::scratch_dir("safety_cli");
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  {
+    BackgroundCli run("scene " + write_scene(dir, 20, 4000).string() + " --out " + out.string() + " --layout pointodyssey --quiet",
+                      dir / "run.log");
+    ASSERT_TRUE(wait_for_staging(out));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    ::kill(run.pid(), SIGKILL);
+    EXPECT_EQ(run.wait(), 128 + SIGKILL);
+  }
+  ASSERT_FALSE(staged_leftovers(out).empty()) << "a SIGKILL leaves its staged files";
+  const test_support::CliResult rerun = test_support::run_cli("scene " + write_scene(dir, 1, 200).string() + " --out " +
+                                                              out.string() + " --layout pointodyssey --quiet");
+  ASSERT_EQ(rerun.exit_code, 0) << rerun.output;
+  EXPECT_TRUE(staged_leftovers(out).empty()) << staged_leftovers(out).front();
+  EXPECT_TRUE(fs::exists(out / "walkers_orbit" / "anno.npz"));
+}
+
+TEST(StagedSweepTest, OnlyLeftoversOfDeadProcessesOfThisHostGo) {
+  const fs::path dir = test_support::scratch_dir("safety");
+  // A process that has ended, and this host's tag as temporary_name() writes it.
+  const pid_t dead = ::fork();
+  if (dead == 0) ::_exit(0);
+  ::waitpid(dead, nullptr, 0);
+  const std::string name = fs::path(io::temporary_name((dir / "x").string())).filename().string();
+  const std::string host = name.substr(name.rfind('-') + 1);
+  const auto leftover = [&](const std::string& target, const char* kind, pid_t pid, const std::string& tag) {
+    return dir / (target + "." + kind + "-" + std::to_string(pid) + "-7-" + tag);
+  };
+  std::ofstream(leftover("tracks.npz", "partial", dead, host)) << "x";
+  std::ofstream(leftover("tracks.npz", "partial", dead, host).string() + ".partial-" + std::to_string(dead) + "-trajs_2d") << "x";
+  fs::create_directories(leftover("seq", "partial", dead, host) / "depths");
+  std::ofstream(leftover("lost.json", "previous", dead, host)) << "previous lost";
+  std::ofstream(dir / "there.json") << "new";
+  std::ofstream(leftover("there.json", "previous", dead, host)) << "previous there";
+  std::ofstream(leftover("live.json", "partial", ::getppid(), host)) << "x";      // running
+  std::ofstream(leftover("other.json", "partial", dead, "0badc0de")) << "x";      // another machine's
+  std::ofstream(dir / "mine.json.partial-12-3") << "x";                           // not our pattern
+  EXPECT_EQ(io::sweep_leftovers(dir.string()), 5);
+  EXPECT_EQ(test_support::files_in(dir),
+            (std::vector<std::string>{leftover("live.json", "partial", ::getppid(), host).filename().string(), "lost.json",
+                                      "mine.json.partial-12-3", leftover("other.json", "partial", dead, "0badc0de").filename().string(),
+                                      "there.json"}));
+  EXPECT_EQ(read_bytes(dir / "lost.json"), "previous lost");
+  EXPECT_EQ(read_bytes(dir / "there.json"), "new");
+}
+
+}  // namespace
+}  // namespace odyssey
