@@ -4,6 +4,7 @@
 #include "cli/args.h"
 #include "cli/commands.h"
 #include "mocap_io/body_model_writer.h"
+#include "mocap_io/output_file.h"
 #include "synthetic/synthetic_body.h"
 
 namespace odyssey::cli {
@@ -19,6 +20,7 @@ int run_make_body(const std::vector<std::string>& arguments) {
                      "licensed model (for benchmarks; a much larger file)");
   if (!args.parse(arguments)) return 0;
   const std::string out = args.get("out");
+  io::require_replaceable_output(out);
   const long long seed = args.get_int("seed");
   if (seed < 0 || seed > 0xffffffffLL) throw UsageError("--seed must be between 0 and 4294967295");
   const SyntheticBody body = make_synthetic_body(static_cast<unsigned>(seed), args.get_flag("dense"));

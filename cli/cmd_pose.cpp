@@ -15,6 +15,8 @@
 #include "mocap_io/body_model_file.h"
 #include "mocap_io/bvh.h"
 #include "mocap_io/input_error.h"
+#include "mocap_io/input_file.h"
+#include "mocap_io/output_file.h"
 #include "mocap_io/pose_export.h"
 #include "skeleton/pose_layout.h"
 
@@ -42,6 +44,8 @@ int run_pose(const std::vector<std::string>& arguments) {
 
   const std::string motion_path = args.get("motion");
   const std::string out_path = args.get("out");
+  io::require_replaceable_output(out_path);
+  io::require_not_an_input(out_path, {motion_path, args.has("model") ? args.get("model") : std::string()});
   std::optional<double> fps;
   if (args.has("fps")) {
     fps = args.get_double("fps");
@@ -53,6 +57,7 @@ int run_pose(const std::vector<std::string>& arguments) {
     std::printf("units: %s\n", loaded.frame.description().c_str());
     if (!loaded.frame.plausible) std::fprintf(stderr, "warning: %s\n", loaded.frame.warning(motion_path).c_str());
     Clip clip = std::move(loaded.clip);
+    if (fps) io::require_frames_within_cap(motion_path, clip.frame_count(), clip.fps, *fps);
     if (fps) clip = clip.resampled(*fps);
     io::export_clip_joints(clip, out_path);
     std::printf("wrote %s: %d frames at %.6g fps, %d joints\n", out_path.c_str(), clip.frame_count(), clip.fps,
@@ -64,6 +69,7 @@ int run_pose(const std::vector<std::string>& arguments) {
   const BodyModel model = io::load_body_model(model_path);
   BodySequence sequence = io::load_amass_file(motion_path).sequence;
   if (sequence.frame_count() < 1) throw io::InputError(motion_path, "the sequence has no frames");
+  if (fps) io::require_frames_within_cap(motion_path, sequence.frame_count(), sequence.fps, *fps);
   if (fps) sequence = sequence.resampled(*fps);
   sequence = sequence_for_model(sequence, model.kind);
   BetasFit betas;

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/input_file.h"
 #include "mocap_io/output_file.h"
 
 namespace odyssey::io {
@@ -21,7 +22,7 @@ constexpr std::uint64_t kHeaderBytes = 12;
 AnimeFile read_anime_file(const std::string& path) {
   return naming_out_of_memory(path, [&] {
     std::error_code error;
-    if (!std::filesystem::is_regular_file(path, error)) throw InputError(path, "no such file (or not a regular file)");
+    require_input_file(path);
     const std::uint64_t size = std::filesystem::file_size(path, error);
     if (error) throw InputError(path, "cannot be read");
     std::ifstream in(path, std::ios::binary);

@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/input_file.h"
+#include "mocap_io/json_reader.h"
 
 namespace odyssey::io {
 
@@ -39,11 +41,7 @@ BoneMapFile parse(const std::string& json_text, const std::string& origin) {
     return true;
   };
   nlohmann::json document;
-  try {
-    document = nlohmann::json::parse(json_text, record);
-  } catch (const nlohmann::json::exception& error) {
-    throw InputError(origin, std::string("not valid JSON: ") + error.what());
-  }
+  document = parse_json(json_text, origin, record);
   if (!document.is_object()) throw InputError(origin, "a bone map must be a JSON object");
   BoneMapFile map;
   map.name = optional_text(document, "name", origin);
@@ -88,12 +86,7 @@ BoneMapFile parse_bone_map(const std::string& json_text, const std::string& orig
 
 BoneMapFile load_bone_map_file(const std::string& path) {
   return naming_out_of_memory(path, [&] {
-    std::ifstream file(path, std::ios::binary);
-    if (!file) throw InputError(path, "cannot open the bone map file");
-    std::ostringstream text;
-    text << file.rdbuf();
-    if (file.bad()) throw InputError(path, "cannot read the bone map file");
-    return parse(text.str(), path);
+    return parse(read_input_file(path, kMaxJsonInputBytes), path);
   });
 }
 

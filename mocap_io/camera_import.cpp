@@ -13,6 +13,7 @@
 #include <string_view>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/input_file.h"
 
 namespace odyssey::io {
 namespace {
@@ -44,11 +45,12 @@ bool is_blank(std::string_view line) { return line.find_first_not_of(" \t\r") ==
 // Reads a file's lines; each reader reports problems as "FILE: line N: PROBLEM".
 class LineReader {
  public:
-  explicit LineReader(std::string path) : path_(std::move(path)), in_(path_, std::ios::binary) {
-    if (!in_) throw InputError(path_, "cannot open");
-  }
+  explicit LineReader(std::string path) : path_(std::move(path)), whole_(read_input_file(path_, kMaxTextInputBytes)), rest_(whole_) {}
   bool next() {
-    if (!std::getline(in_, text_)) return false;
+    if (rest_.empty()) return false;
+    const std::size_t end = rest_.find('\n');
+    text_ = rest_.substr(0, end);
+    rest_ = end == std::string_view::npos ? std::string_view{} : rest_.substr(end + 1);
     ++number_;
     return true;
   }
@@ -76,8 +78,8 @@ class LineReader {
 
  private:
   std::string path_;
-  std::ifstream in_;
-  std::string text_;
+  std::string whole_;
+  std::string_view rest_, text_;
   long number_ = 0;
 };
 

@@ -11,6 +11,8 @@
 #include <stdexcept>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/input_file.h"
+#include "mocap_io/json_reader.h"
 #include "mocap_io/output_file.h"
 
 namespace odyssey::io {
@@ -48,11 +50,7 @@ class CameraPathReader {
     Json document;
     // nlohmann rejects NaN and infinity literals (not JSON) and numbers past double's range
     // (out_of_range, not parse_error), so every number read below is finite.
-    try {
-      document = Json::parse(text);
-    } catch (const nlohmann::json::exception& error) {
-      fail(std::string("not valid JSON: ") + error.what());
-    }
+    document = parse_json(text, path_);
     if (!document.is_object()) fail("a camera path file must be a JSON object");
     const Json& format = member(document, "format", "");
     if (!format.is_string() || format.get<std::string>() != kFormat) {
@@ -138,6 +136,7 @@ class CameraPathReader {
     PinholeIntrinsics k;
     k.width = image_size(frame, "width", where);
     k.height = image_size(frame, "height", where);
+    if (const std::string problem = image_size_problem(k.width, k.height); !problem.empty()) fail(where + problem);
     const Eigen::MatrixXd m = matrix(frame, "intrinsics", 3, 3, where);
     // PinholeIntrinsics has no skew and no projective row: anything but these zeros and the one
     // would be silently dropped, so it is an error.
@@ -202,12 +201,7 @@ void write_camera_path_json(const std::string& path, const CameraPath& camera) {
 
 CameraPath read_camera_path_json(const std::string& path) {
   return naming_out_of_memory(path, [&] {
-    std::ifstream file(path, std::ios::binary);
-    if (!file) throw InputError(path, "cannot be opened");
-    std::ostringstream text;
-    text << file.rdbuf();
-    if (file.bad()) throw InputError(path, "could not be read to the end");
-    return CameraPathReader(path).read(text.str());
+    return CameraPathReader(path).read(read_input_file(path, kMaxJsonInputBytes));
   });
 }
 

@@ -4,6 +4,7 @@
 #include <string_view>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/input_file.h"
 #include "mocap_io/json_reader.h"
 
 namespace odyssey::io {
@@ -100,6 +101,6 @@ CsvTable parse_csv(const std::string& file_text, const std::string& file) {
   return table;
 }
 
-CsvTable read_csv_file(const std::string& path) { return parse_csv(read_text_file(path), path); }
+CsvTable read_csv_file(const std::string& path) { return parse_csv(read_text_file(path, kMaxTextInputBytes), path); }
 
 }  // namespace odyssey::io

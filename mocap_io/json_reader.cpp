@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/input_file.h"
 
 namespace odyssey::io {
 namespace {
@@ -107,20 +108,11 @@ bool JsonValue::boolean() const {
   return value_->get<bool>();
 }
 
-std::string read_text_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "cannot open");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InputError(path, "read failed");
-  return text.str();
-}
+std::string read_text_file(const std::string& path, std::uint64_t max_bytes) { return read_input_file(path, max_bytes); }
 
 JsonDocument JsonDocument::read_file(const std::string& path) { return parse(read_text_file(path), path); }
 
-JsonDocument JsonDocument::parse(const std::string& text, const std::string& name) {
-  JsonDocument document;
-  document.name_ = name;
+nlohmann::json parse_json(const std::string& text, const std::string& name, const nlohmann::json::parser_callback_t& also) {
   // nlohmann's parser keeps its own stack; the callback sees each value's depth and stops a
   // document nested deeper than any person writes before it is built. It also follows the open
   // objects and arrays, so that a key given twice in one object (nlohmann keeps the last) is an
@@ -168,14 +160,20 @@ JsonDocument JsonDocument::parse(const std::string& text, const std::string& nam
         next_element();
         break;
     }
-    return true;
+    return also ? also(depth, event, parsed) : true;
   };
   try {
-    document.json_ = nlohmann::json::parse(text, follow);
+    return nlohmann::json::parse(text, follow);
   } catch (const nlohmann::json::exception& error) {
     // parse_error, and out_of_range for a number too large for a double (1e99999).
     throw InputError(name, std::string("not valid JSON: ") + error.what());
   }
+}
+
+JsonDocument JsonDocument::parse(const std::string& text, const std::string& name) {
+  JsonDocument document;
+  document.name_ = name;
+  document.json_ = parse_json(text, name);
   return document;
 }
 

@@ -7,11 +7,14 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
+
+#include "mocap_io/input_file.h"
 
 namespace odyssey::io {
 
@@ -56,8 +59,15 @@ class JsonValue {
 
 // A parsed document that owns its value. Throws InputError naming the file when it cannot be
 // read, is not JSON (with the byte offset), or nests deeper than kMaxJsonDepth.
-// The whole file as text; throws InputError naming it when it cannot be read.
-std::string read_text_file(const std::string& path);
+// The whole file as text (read_input_file: a regular file, at most `max_bytes`); throws InputError
+// naming it when it cannot be read.
+std::string read_text_file(const std::string& path, std::uint64_t max_bytes = kMaxJsonInputBytes);
+
+// nlohmann::json::parse under the rules every JSON input follows: no deeper than kMaxJsonDepth, and
+// a key given twice in one object refused naming its JSON path (nlohmann would keep the last).
+// `also`, when given, sees every parser event after these checks. Throws InputError naming `name`.
+nlohmann::json parse_json(const std::string& text, const std::string& name,
+                          const nlohmann::json::parser_callback_t& also = nullptr);
 
 class JsonDocument {
  public:

@@ -7,12 +7,13 @@
 
 #include "mocap_io/bvh.h"
 #include "mocap_io/input_error.h"
+#include "mocap_io/input_file.h"
 #include "mocap_io/npy.h"
 
 namespace odyssey::io {
 
 MotionFileKind detect_motion_file(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) throw InputError(path, "no such file");
+  require_input_file(path);
   std::string extension = std::filesystem::path(path).extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   if (extension == ".bvh") return MotionFileKind::Bvh;

@@ -6,6 +6,7 @@
 #include <string_view>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/input_file.h"
 
 namespace odyssey::io {
 namespace {
@@ -25,16 +26,17 @@ std::string_view next_token(std::string_view& line) {
 }  // namespace
 
 ObjMesh load_obj(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "cannot open");
+  const std::string whole = read_input_file(path, kMaxTextInputBytes);
   ObjMesh mesh;
-  std::string text;
   std::vector<std::uint32_t> corners;
-  for (long line_number = 1; std::getline(in, text); ++line_number) {
+  std::string_view rest = whole;
+  for (long line_number = 1; !rest.empty(); ++line_number) {
     const auto fail = [&](const std::string& problem) {
       throw InputError(path, "line " + std::to_string(line_number) + ": " + problem);
     };
-    std::string_view line = text;
+    const std::size_t end_of_line = rest.find('\n');
+    std::string_view line = rest.substr(0, end_of_line);
+    rest = end_of_line == std::string_view::npos ? std::string_view{} : rest.substr(end_of_line + 1);
     const std::string_view keyword = next_token(line);
     if (keyword == "v") {
       Eigen::Vector3f p;
@@ -71,7 +73,6 @@ ObjMesh load_obj(const std::string& path) {
       }
     }
   }
-  if (in.bad()) throw InputError(path, "read failed");
   if (mesh.triangles.empty()) throw InputError(path, "no faces: a prop mesh needs triangles");
   return mesh;
 }

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <set>
 
+#include "mocap_io/input_file.h"
 #include "mocap_io/install_layout.h"
 #include "mocap_io/json_reader.h"
 #include "mocap_io/motion_file.h"
@@ -408,6 +409,15 @@ CameraRig read_ego(const JsonValue& item, const CameraContext& context) {
       rig.actor = static_cast<int>(value->integer(0, static_cast<long long>(context.actors.size()) - 1));
     }
   }
+  // Known here, so said here with the file and JSON path, not when the shot is prepared.
+  if (rig.actor >= 0 && static_cast<std::size_t>(rig.actor) < context.actors.size() &&
+      !std::holds_alternative<RetargetRequest>(context.actors[rig.actor].source)) {
+    const SceneActor& actor = context.actors[rig.actor];
+    const bool anime = std::holds_alternative<AnimeRequest>(actor.source);
+    (item.find("actor") ? item.member("actor") : item)
+        .fail("actor '" + actor.name + "' plays " + (anime ? "an anime mesh" : "its character's own animation") +
+              ", which has no bone map: an ego camera rides on the head and hips of a retargeted motion");
+  }
   if (const auto value = item.find("eye_forward")) rig.eye_forward = value->number();
   if (const auto value = item.find("eye_up")) rig.eye_up = value->number();
   if (const auto value = item.find("smoothing")) rig.smoothing_s = value->number_in(0, 1e3);
@@ -525,6 +535,9 @@ SceneCamera read_camera(const JsonValue& item, std::size_t index, const std::vec
   }
   if (const auto value = item.find("width")) camera.width = static_cast<int>(value->integer(1, 1 << 16));
   if (const auto value = item.find("height")) camera.height = static_cast<int>(value->integer(1, 1 << 16));
+  if (const std::string problem = io::image_size_problem(camera.width, camera.height); !problem.empty()) {
+    item.member(item.find("width") ? "width" : "height").fail(problem);
+  }
   if (const auto value = item.find("hfov")) {
     camera.hfov_deg = value->number();
     if (!(camera.hfov_deg > 0 && camera.hfov_deg < 180)) value->fail("expected degrees between 0 and 180");

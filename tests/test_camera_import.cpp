@@ -392,7 +392,7 @@ TEST(CameraImportErrorsTest, BadFilesAreNamedWithTheirLineAndProblem) {
     EXPECT_TRUE(contains(message, c.expected)) << c.name << ": " << message;
   }
   const std::string missing = test_support::message_of<io::InputError>([&] { io::read_colmap_text((dir / "nowhere").string(), 30); });
-  EXPECT_TRUE(contains(missing, "cameras.txt: cannot open")) << missing;
+  EXPECT_TRUE(contains(missing, "cameras.txt: no such file")) << missing;
 }
 
 // Six cameras on a circle of radius 3 about (5, 1, -2) of a y-up world, each looking at that point

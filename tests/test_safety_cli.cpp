@@ -3,6 +3,7 @@
 // a SIGKILL left is swept by the next run into the same folder.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -17,8 +18,10 @@
 #include <thread>
 
 #include "cli_runner.h"
+#include "mocap_io/amass.h"
 #include "mocap_io/input_error.h"
 #include "mocap_io/output_file.h"
+#include "synthetic/synthetic_walk.h"
 #include "test_support.h"
 
 namespace odyssey {
@@ -270,6 +273,87 @@ TEST(StagedSweepTest, OnlyLeftoversOfDeadProcessesOfThisHostGo) {
                                       "there.json"}));
   EXPECT_EQ(read_bytes(dir / "lost.json"), "previous lost");
   EXPECT_EQ(read_bytes(dir / "there.json"), "new");
+}
+
+// --- caps ----------------------------------------------------------------------------------------
+
+TEST(SafetyCliTest, AClipWhoseResamplingPassesTheFrameCapIsRefusedBeforeItIsMade) {
+  const fs::path dir = test_support::scratch_dir("safety_cli");
+  // Two frames a million seconds apart: 30 million frames at 30 fps.
+  std::ofstream(dir / "slow.bvh") << "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition "
+                                     "Zrotation Xrotation Yrotation\n  End Site\n  {\n    OFFSET 0 10 0\n  }\n}\nMOTION\n"
+                                     "Frames: 2\nFrame Time: 1e6\n0 0 0 0 0 0\n0 0 0 0 0 0\n";
+  test_support::CliResult run = test_support::run_cli("pose --motion " + (dir / "slow.bvh").string() + " --out " +
+                                                      (dir / "slow.npz").string() + " --fps 30");
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_TRUE(contains(run.output, (dir / "slow.bvh").string() + ": 2 frames at 1e-06 fps resampled to 30 fps make 3e+07 frames, "
+                                                                  "more than the cap of 10000000"))
+      << run.output;
+  EXPECT_FALSE(fs::exists(dir / "slow.npz"));
+
+  // An AMASS sequence at 1e-9 frames a second.
+  BodySequence walk = synthetic_walk(2, 30, BodyModelKind::SMPLX, 0);
+  walk.fps = 1e-9;
+  io::write_amass((dir / "slow_amass.npz").string(), walk);
+  ASSERT_EQ(test_support::run_cli("make-body --out " + (dir / "body.npz").string()).exit_code, 0);
+  run = test_support::run_cli("pose --model " + (dir / "body.npz").string() + " --motion " + (dir / "slow_amass.npz").string() +
+                              " --out " + (dir / "slow.npz").string() + " --fps 30 --joints-only");
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_TRUE(contains(run.output, "resampled to 30 fps make 3e+10 frames, more than the cap of 10000000")) << run.output;
+}
+
+TEST(SafetyCliTest, AnImageTooLargeIsRefusedAtParseTimeNamingItsJsonPath) {
+  const fs::path dir = test_support::scratch_dir("safety_cli");
+  std::ofstream(dir / "huge.json") << R"({"version": 1, "actors": [{"motion": ")" << kData
+                                   << R"(/mocap/cmu_walk_cgspeed.bvh", "character": ")" << kData
+                                   << R"(/characters/RiggedFigure.glb"}], "cameras": [{"type": "orbit"},
+                                       {"type": "static", "width": 16384, "height": 16384}]})";
+  const test_support::CliResult run = test_support::run_cli("scene " + (dir / "huge.json").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_TRUE(contains(run.output, (dir / "huge.json").string() + ": cameras[1].width: 16384 x 16384 pixels is larger than the cap "
+                                                                  "of 16384 a side and 33554432 pixels in all"))
+      << run.output;
+}
+
+TEST(SafetyCliTest, AnEgoCameraOnAnActorWithoutABoneMapIsRefusedNamingItsJsonPath) {
+  const fs::path dir = test_support::scratch_dir("safety_cli");
+  std::ofstream(dir / "ego.json") << R"({"version": 1, "actors": [{"name": "dancer", "character": ")" << kData
+                                  << R"(/characters/RiggedFigure.glb", "animation": "any"}],
+                                      "cameras": [{"type": "ego", "actor": "dancer"}]})";
+  const test_support::CliResult run = test_support::run_cli("scene " + (dir / "ego.json").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_TRUE(contains(run.output, (dir / "ego.json").string() + ": cameras[0].actor: actor 'dancer' plays its character's own "
+                                                                 "animation, which has no bone map"))
+      << run.output;
+}
+
+// --- pose and make-body outputs ---------------------------------------------------------------
+
+TEST(SafetyCliTest, PoseAndMakeBodyRefuseOutputsThatAreNotFilesOrAreInputs) {
+  const fs::path dir = test_support::scratch_dir("safety_cli");
+  const fs::path motion = dir / "walk.bvh";
+  fs::copy_file(kData + "/mocap/cmu_walk_cgspeed.bvh", motion);
+  const auto size = fs::file_size(motion);
+  ASSERT_EQ(::mkfifo((dir / "fifo.npz").c_str(), 0644), 0);
+  fs::create_directories(dir / "folder.npz");
+  const std::string pose = "pose --motion " + motion.string() + " --out ";
+  for (const auto& [out, expected] : {std::pair{dir / "fifo.npz", "exists and is a FIFO, not a regular file"},
+                                      std::pair{dir / "folder.npz", "exists and is a folder, not a regular file"},
+                                      std::pair{motion, "is also an input of this run"},
+                                      std::pair{dir / "." / "walk.bvh", "is also an input of this run"}}) {
+    const test_support::CliResult run = test_support::run_cli(pose + out.string());
+    EXPECT_EQ(run.exit_code, 1) << run.output;
+    EXPECT_TRUE(contains(run.output, expected)) << run.output;
+  }
+  EXPECT_EQ(fs::file_size(motion), size);
+  EXPECT_TRUE(fs::is_fifo(dir / "fifo.npz"));
+  for (const fs::path& out : {dir / "fifo.npz", dir / "folder.npz"}) {
+    const test_support::CliResult run = test_support::run_cli("make-body --out " + out.string());
+    EXPECT_EQ(run.exit_code, 1) << run.output;
+    EXPECT_TRUE(contains(run.output, "not a regular file")) << run.output;
+  }
+  EXPECT_TRUE(fs::is_fifo(dir / "fifo.npz"));
+  EXPECT_TRUE(fs::is_directory(dir / "folder.npz"));
 }
 
 }  // namespace

@@ -545,7 +545,7 @@ TEST(SceneCliTest, BadScenesFailNamingTheProblemAndWriteNothing) {
            "cameras": [{"type": "static"}]})",
        "actors 'a' and 'b' overlap at frame 0"},
       {R"({"version": 1, "actors": [)" + good_actor + R"(], "props": [{"type": "mesh", "path": "table.obj"}], "cameras": [{"type": "static"}]})",
-       "table.obj: cannot open"},
+       "table.obj: no such file"},
       {R"({"version": 1, "actors": [)" + good_actor + R"(], "cameras": [{"type": "static", "hfov": 0}]})",
        "cameras[0].hfov: expected degrees between 0 and 180"},
   };
