@@ -32,10 +32,9 @@ static_assert(std::endian::native == std::endian::little,
 // Largest ratio - 1 between the singular values of a world linear part that still counts as one
 // uniform scale on a node with joints below it (see the header).
 constexpr double kMaxAnisotropy = 1e-3;
-// The nodes hold the bind pose when every skin joint's rigid frame at bind (from the inverse bind
-// matrices) and in the nodes agree to these: positions to this fraction of the skeleton's size,
-// rotations to this angle (radians). Float32 matrices from exporters agree to about 1e-6.
-constexpr double kBindPositionTolerance = 1e-4;
+// The nodes hold the bind pose when every skin joint's rotation at bind (from the inverse bind
+// matrices) and in the nodes agree to this angle (radians); float32 matrices from exporters agree
+// to about 1e-6.
 constexpr double kBindAngleTolerance = 1e-4;
 // An inverse bind matrix whose linear part's smallest singular value is below this fraction of
 // its largest cannot be inverted into a bind pose (and would collapse the mesh).
@@ -982,10 +981,10 @@ class CharacterReader {
   //   Gb(n) = Gb(p) IBM_p IBM_n^-1,
   // since at bind every joint's G IBM is one matrix M; every other node keeps its local
   // transform, Gb(n) = Gb(p) L(n). A joint listed by several skins takes the last skin's matrix,
-  // as Blender does. When the nodes disagree with that pose (a joint's position by more than
-  // kBindPositionTolerance of the skeleton's size, or its rotation by kBindAngleTolerance; scale
-  // is not compared, as Blender drops it from bones), the nodes hold another pose and the bind
-  // pose becomes the rest pose: world_ is replaced by Gb.
+  // as Blender does. When a joint's rotation differs from the nodes' by more than
+  // kBindAngleTolerance, the nodes hold another pose and the bind pose becomes the rest pose:
+  // world_ is replaced by Gb. Positions alone are not compared: a node scale the inverse bind
+  // matrices do not hold moves joints without posing them, and the rigid skeleton carries it.
   void adopt_bind_pose(Character& character) {
     const int n = node_count();
     std::vector<Eigen::Matrix4d> ibm(n, Eigen::Matrix4d::Identity());
@@ -1016,11 +1015,6 @@ class CharacterReader {
       if (!bind[node].allFinite()) fail(node_label(node) + " bind pose transform (from the inverse bind matrices) overflows");
     }
 
-    Eigen::AlignedBox3d box;
-    for (int node = 0; node < n; ++node) {
-      if (in_skeleton_[node]) box.extend(Eigen::Vector3d(world_[node].topRightCorner<3, 1>()));
-    }
-    const double size = box.isEmpty() ? 0.0 : box.diagonal().norm();
     const auto rotation_of = [](const Eigen::Matrix4d& m) {
       const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m.topLeftCorner<3, 3>(), Eigen::ComputeFullU | Eigen::ComputeFullV);
       Eigen::Matrix3d u = svd.matrixU();
@@ -1034,7 +1028,7 @@ class CharacterReader {
       ++compared;
       const double distance = (bind[node].topRightCorner<3, 1>() - world_[node].topRightCorner<3, 1>()).norm();
       const double angle = Eigen::AngleAxisd(rotation_of(bind[node]).transpose() * rotation_of(world_[node])).angle();
-      if (distance > kBindPositionTolerance * size || angle > kBindAngleTolerance) ++differing;
+      if (angle > kBindAngleTolerance) ++differing;
       worst_distance = std::max(worst_distance, distance);
       worst_angle = std::max(worst_angle, angle);
     }

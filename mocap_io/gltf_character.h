@@ -44,9 +44,10 @@
 // IBM_n^-1 relative to it; every other node, joints outside every skin included, keeps its own
 // local transform under its parent's bind pose. This is how Blender's importer guesses the
 // original bind pose (its default), and a joint listed by several skins takes the last one's
-// matrix as there. When some skin joint's rigid frame in Gb differs from the nodes' (position by
-// 1e-4 of the skeleton's size or rotation by 1e-4 rad; scale is not compared), the nodes hold
-// another pose and Gb replaces G everywhere below: skeleton, inverse binds (the mesh then rests
+// matrix as there. When some skin joint's rotation in Gb differs from the nodes' by more than
+// 1e-4 rad, the nodes hold another pose and Gb replaces G everywhere below (positions alone are
+// not compared: a node scale the inverse bind matrices do not hold moves joints without posing
+// them, and the rigid skeleton carries such scale as before): skeleton, inverse binds (the mesh then rests
 // as stored, M v) and rigid meshes. Character::rest_pose_origin says which pose was used and by
 // how much the nodes differed; source_rest_local_of_joint keeps the bind locals for the writer.
 // An inverse bind matrix that is not finite, not affine or singular (smallest singular value of

@@ -379,7 +379,9 @@ TEST_P(GlbExportTest, IsSelfContainedWithWeightsSummingToOne) {
   EXPECT_GT(checked, 0u);
 }
 
-// Frames at rest give back the file's own node rotations and translations (up to float32).
+// Frames at rest give back the file's own node rotations and translations (up to float32), or,
+// for a character resting in its bind pose rather than its nodes' (RobotExpressive), the bind
+// pose's local transforms (Character::source_rest_local_of_joint).
 TEST_P(GlbExportTest, RestClipReproducesTheNodeTransforms) {
   const Character character = load_character(character_path(GetParam()));
   const tinygltf::Model source = parse(character_path(GetParam()));
@@ -398,7 +400,8 @@ TEST_P(GlbExportTest, RestClipReproducesTheNodeTransforms) {
   const std::vector<Matrix4d> rest = world_at(model, 0.5 / clip.fps);
   for (int j = 0; j < character.skeleton.joint_count(); ++j) {
     const int node = character.source_node_of_joint[j];
-    const Matrix4d expected = static_local(source.nodes[node]);
+    const Matrix4d expected = character.source_rest_local_of_joint.empty() ? static_local(source.nodes[node])
+                                                                           : character.source_rest_local_of_joint[j];
     const int parent = [&] {
       for (std::size_t n = 0; n < model.nodes.size(); ++n) {
         const auto& children = model.nodes[n].children;
