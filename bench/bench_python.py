@@ -46,7 +46,7 @@ def timed(call):
     return time.perf_counter() - start
 
 
-def compare(repeats, cpp, python, seconds=3.0):
+def compare(repeats, cpp, python, seconds=20.0):
     """Runs the two in adjacent pairs, each pair in the other order than the last, over at least
     `repeats` pairs and `seconds` of each (short calls get more pairs; at most 500). Returns the
     fastest run of each, the median over pairs of python / cpp - 1 (two runs next to each other
