@@ -179,6 +179,8 @@ std::optional<Leg> find_leg(const Structure& s, int pelvis, int foot, std::strin
   return leg;
 }
 
+int rig_parent(const Structure& s, int joint) { return s.rig.parent(joint); }
+
 // Along the path from the chest to a hand's leaf (see the header).
 std::optional<Arm> find_arm(const Structure& s, int chest, int hand, std::string& problem) {
   const std::vector<int> path = s.path(chest, hand);
@@ -219,7 +221,9 @@ std::optional<Arm> find_arm(const Structure& s, int chest, int hand, std::string
     }
   }
   arm.shoulder = path[shoulder_at];
-  if (shoulder_at > 0) arm.collar = path[shoulder_at - 1];
+  // The collar is the shoulder's parent below the chest, even one sitting on the chest (CMU's
+  // LeftShoulder): its bone, out to the shoulder, is the clavicle.
+  if (rig_parent(s, arm.shoulder) != chest && rig_parent(s, arm.shoulder) >= 0) arm.collar = rig_parent(s, arm.shoulder);
   return arm;
 }
 

@@ -16,15 +16,15 @@
 //            on it), the knee the joint between hip and ankle that splits that stretch most
 //            evenly, |log(|hip - knee| / |knee - ankle|)| smallest;
 //   arms:    the leaf furthest sideways from the pelvis's vertical (at least 0.08 H) that is
-//            below the pelvis and not in a leg, and the
-//            furthest on the other side (horizontal directions at an obtuse angle) whose common
-//            ancestor with it lies at least 0.2 H from both; the chest (spine3) is that common
-//            ancestor. Along each path from the chest: the wrist is the first joint with two or
+//            below the pelvis and not in a leg, and the furthest on the other side (horizontal
+//            directions at an obtuse angle) whose common ancestor with it lies at least 0.2 H
+//            from both; the chest (spine3) is that common ancestor. Along each path from the chest: the wrist is the first joint with two or
 //            more finger branches (children with a child of their own; a twist bone hanging off
 //            the forearm has none), else the leaf, or the leaf's parent when the leaf's bone is
 //            under 0.4 of the one before (a hand tip); the shoulder and the elbow are the pair
 //            before the wrist with |shoulder - elbow| / |elbow - wrist| nearest 1.15 in ratio (an
-//            upper arm against forearm), the collar the joint before the shoulder, if any;
+//            upper arm against forearm), the collar the shoulder's parent when that is not the
+//            chest (even one sitting on the chest, as CMU's LeftShoulder: its bone is the clavicle);
 //   spine:   the path from the pelvis to the chest, spine1 its first joint, spine2 its last when
 //            there are two or more, as the name detection does;
 //   head:    the highest joint above the chest outside the arms; walking up the path to it, the

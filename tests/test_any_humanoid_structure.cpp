@@ -127,7 +127,7 @@ TEST(StructureMotionTest, CmuClipsStructureMapEqualsTheNameMap) {
     const Agreement a = compare(bvh.clip.skeleton, by_names, structure.map);
     print(file, by_names, a);
     EXPECT_EQ(a.equal, a.both) << file << ": " << listed(a.differing);
-    EXPECT_GE(a.both, 20) << file;
+    EXPECT_GE(a.both, 21) << file;
   }
 }
 
@@ -144,6 +144,21 @@ TEST(StructureCharacterTest, UnrealNamedCharacter) {
   print("male_base_mesh.glb under Unreal names", by_names, a);
   EXPECT_EQ(a.equal, a.both) << listed(a.differing);
   EXPECT_GE(a.both, 21);
+}
+
+// RobotExpressive hangs its feet from the root, outside the leg chains (an IK-style rig): the
+// structure cannot find its ankles, which is why it has a preset; the names keep winning.
+TEST(StructureCharacterTest, RobotExpressiveIsLeftToItsPreset) {
+  const Character robot = io::load_character(kSharedCharacters + "RobotExpressive.glb");
+  EXPECT_EQ(retarget::humanoid_bone_map(robot, "robot").origin, "preset robot_expressive");
+  const retarget::StructureMap structure = retarget::bone_map_from_structure(numbered(robot));
+  if (structure.problem.empty()) {
+    const Agreement a = compare(robot.skeleton, retarget::humanoid_bone_map(robot, "robot"), structure.map);
+    print("RobotExpressive.glb", retarget::humanoid_bone_map(robot, "robot"), a);
+    EXPECT_LT(a.equal, a.both) << "the structure found RobotExpressive's feet: update the header's list of misses";
+  } else {
+    std::printf("RobotExpressive.glb by structure: %s\n", structure.problem.c_str());
+  }
 }
 
 // Retargeting through the structure's map of a numbered CesiumMan gives what the name map gives.
@@ -192,7 +207,7 @@ TEST(StructureRefusalTest, NonHumanoidsAreRefusedSayingWhatWasFound) {
   std::vector<int> parents;
   std::vector<Eigen::Vector3d> offsets;
   for (int j = 0; j < 12; ++j) {
-    names.push_back("s" + std::to_string(j));
+    names.push_back(std::to_string(j));
     parents.push_back(j - 1);
     offsets.push_back(j == 0 ? Eigen::Vector3d(0, 0, 0.05) : Eigen::Vector3d(0.1, 0.01 * (j % 2), 0));
   }
