@@ -152,4 +152,33 @@ std::string path_argument(const py::handle& path, const char* name) {
                    std::string(py::str(py::type::of(path).attr("__name__"))));
 }
 
+std::string type_name(const py::handle& value) { return py::str(py::type::of(value).attr("__name__")); }
+
+double number_argument(const py::handle& value, const std::string& name) {
+  if (!py::isinstance<py::bool_>(value)) {
+    const double number = PyFloat_AsDouble(value.ptr());
+    if (!(number == -1.0 && PyErr_Occurred())) return number;
+    PyErr_Clear();
+  }
+  throw UsageError(name + ": expected a number, got " + type_name(value));
+}
+
+long long integer_argument(const py::handle& value, const std::string& name) {
+  if (!py::isinstance<py::bool_>(value)) {
+    PyObject* index = PyNumber_Index(value.ptr());
+    if (index) {
+      const long long number = PyLong_AsLongLong(index);
+      Py_DECREF(index);
+      if (!(number == -1 && PyErr_Occurred())) return number;
+    }
+    PyErr_Clear();
+  }
+  throw UsageError(name + ": expected an integer, got " + type_name(value));
+}
+
+std::string text_argument(const py::handle& value, const std::string& name) {
+  if (py::isinstance<py::str>(value)) return value.cast<std::string>();
+  throw UsageError(name + ": expected a str, got " + type_name(value));
+}
+
 }  // namespace odyssey::python

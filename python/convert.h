@@ -80,4 +80,10 @@ nlohmann::ordered_json from_python(const py::handle& object, const std::string& 
 // A str or os.PathLike as a path string; UsageError naming `name` otherwise.
 std::string path_argument(const py::handle& path, const char* name);
 
+// A real number (a Python or numpy number), an integer (anything with __index__) or a str;
+// UsageError naming `name` and the type given otherwise, never pybind11's cast error.
+double number_argument(const py::handle& value, const std::string& name);
+long long integer_argument(const py::handle& value, const std::string& name);
+std::string text_argument(const py::handle& value, const std::string& name);
+
 }  // namespace odyssey::python

@@ -52,6 +52,21 @@ scene::RetargetRequest request_from(const std::string& motion, const std::string
 // A batch's counts as the progress callbacks and results give them (finished: the job's record or None).
 py::dict batch_counts(const batch::BatchProgress& progress);
 
+// A batch's progress callback around a Python callable. An exception the callable raises is kept,
+// not thrown into the batch (its worker processes would outlive it): the callable is not called
+// again, the batch finishes its jobs, and rethrow() raises it then.
+class BatchProgressRelay {
+ public:
+  explicit BatchProgressRelay(py::object callable) : callable_(std::move(callable)) {}
+  // The callback to give the batch: empty when the callable is None.
+  batch::BatchProgressCallback callback();
+  void rethrow();
+
+ private:
+  py::object callable_;
+  std::optional<py::error_already_set> failure_;
+};
+
 // BVH units: None (inferred), a name of io::kBvhUnits or metres per unit; UsageError otherwise.
 std::optional<double> bvh_units_argument(const py::handle& units);
 

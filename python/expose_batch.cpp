@@ -15,7 +15,7 @@ batch::Gates gates_argument(const py::object& gates) {
   if (!py::isinstance<py::dict>(gates)) throw UsageError("gates expects a dict such as {'max_skate': 0.25}");
   for (const auto& [key, value] : py::reinterpret_borrow<py::dict>(gates)) {
     const std::string name = py::str(key);
-    const double number = value.cast<double>();
+    const double number = number_argument(value, "gates: " + name);
     if (!(number >= 0)) throw UsageError("gates: " + name + " expects a number >= 0");
     if (name == "max_skate") result.max_skate = number;
     else if (name == "max_bone_error_deg") result.max_bone_error_deg = number;
@@ -35,6 +35,27 @@ std::vector<std::string> paths_argument(const py::object& paths, const char* nam
 }
 
 }  // namespace
+
+batch::BatchProgressCallback BatchProgressRelay::callback() {
+  if (callable_.is_none()) return {};
+  return [this](const batch::BatchProgress& progress) {
+    py::gil_scoped_acquire acquire;
+    if (failure_) return;
+    try {
+      callable_(batch_counts(progress));
+    } catch (py::error_already_set& error) {
+      failure_.emplace(std::move(error));
+    }
+  };
+}
+
+void BatchProgressRelay::rethrow() {
+  if (failure_) {
+    py::error_already_set error = std::move(*failure_);
+    failure_.reset();
+    throw error;
+  }
+}
 
 py::dict batch_counts(const batch::BatchProgress& p) {
   py::dict d;
@@ -69,7 +90,7 @@ void expose_batch(py::module_& m) {
         if (!(timeout_s >= 0)) throw UsageError("timeout_s expects seconds >= 0 (0: none)");
         options.timeout_s = timeout_s;
         if (!max_memory_gib.is_none()) {
-          const double gib = max_memory_gib.cast<double>();
+          const double gib = number_argument(max_memory_gib, "max_memory_gib");
           if (!(gib > 0)) throw UsageError("max_memory_gib expects GiB above 0");
           options.memory_limit_bytes = static_cast<std::size_t>(gib * 1024 * 1024 * 1024);
         }
@@ -95,18 +116,13 @@ void expose_batch(py::module_& m) {
         batch::check_job_names(jobs);
 
         if (!progress.is_none() && !PyCallable_Check(progress.ptr())) throw UsageError("progress expects a callable taking one dict, or None");
-        batch::BatchProgressCallback callback;
-        if (!progress.is_none()) {
-          callback = [&progress](const batch::BatchProgress& p) {
-            py::gil_scoped_acquire acquire;
-            progress(batch_counts(p));
-          };
-        }
+        BatchProgressRelay relay(progress);
         batch::BatchSummary summary;
         {
           py::gil_scoped_release release;
-          summary = batch::run_batch(std::move(jobs), options, callback);
+          summary = batch::run_batch(std::move(jobs), options, relay.callback());
         }
+        relay.rethrow();
         py::dict result = batch_counts(summary.counts);
         result.attr("pop")("finished");
         result["reports"] = summary.reports;
@@ -124,7 +140,8 @@ void expose_batch(py::module_& m) {
       "glb, report, trajectories, point-cache, preview. gates: {'max_skate': R, 'max_bone_error_deg': D,\n"
       "'max_penetration_cm': C, 'max_floating_cm': C, 'max_jitter_ratio': R}. progress, when given, is called\n"
       "after each job (and about twice a second) with the counts {total, done, failed, flagged, resumed, frames,\n"
-      "seconds, finished: the finished job's record or None}. Returns the final counts and the report files. A\n"
+      "seconds, finished: the finished job's record or None}; an exception it raises is raised once the batch has\n"
+      "finished its jobs (its workers are not left behind). Returns the final counts and the report files. A\n"
       "job that fails is counted, not raised; bad arguments raise UsageError, a bad list InputError.");
 }
 

@@ -27,7 +27,7 @@ void expose_dataset(py::module_& m) {
         }
         dataset::DatasetOptions options;
         if (!count.is_none()) {
-          const long n = count.cast<long>();
+          const long long n = integer_argument(count, "count");
           if (n < 1) throw UsageError("count expects a number of sequences >= 1, got " + std::to_string(n));
           options.count = n;
         }
@@ -37,7 +37,7 @@ void expose_dataset(py::module_& m) {
         if (!(timeout_s >= 0)) throw UsageError("timeout_s expects seconds >= 0 (0: none)");
         options.batch.timeout_s = timeout_s;
         if (!max_memory_gib.is_none()) {
-          const double gib = max_memory_gib.cast<double>();
+          const double gib = number_argument(max_memory_gib, "max_memory_gib");
           if (!(gib > 0)) throw UsageError("max_memory_gib expects GiB above 0");
           options.batch.memory_limit_bytes = static_cast<std::size_t>(gib * 1024 * 1024 * 1024);
         }
@@ -47,18 +47,13 @@ void expose_dataset(py::module_& m) {
           throw UsageError(std::string("shard: ") + error.what());
         }
         if (!progress.is_none() && !PyCallable_Check(progress.ptr())) throw UsageError("progress expects a callable taking one dict, or None");
-        batch::BatchProgressCallback callback;
-        if (!progress.is_none()) {
-          callback = [&progress](const batch::BatchProgress& p) {
-            py::gil_scoped_acquire acquire;
-            progress(batch_counts(p));
-          };
-        }
+        BatchProgressRelay relay(progress);
         dataset::DatasetSummary summary;
         {
           py::gil_scoped_release release;
-          summary = dataset::run_dataset(parsed, options, callback);
+          summary = dataset::run_dataset(parsed, options, relay.callback());
         }
+        relay.rethrow();
         py::dict result = batch_counts(summary.counts);
         result.attr("pop")("finished");
         result["reports"] = summary.reports;

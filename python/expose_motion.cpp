@@ -224,7 +224,7 @@ struct BodyModelHandle {
 std::optional<double> bvh_units_argument(const py::handle& units) {
   if (units.is_none()) return std::nullopt;
   if (py::isinstance<py::float_>(units) || py::isinstance<py::int_>(units)) {
-    const double value = units.cast<double>();
+    const double value = number_argument(units, "bvh_units");
     if (!(value > 0) || !std::isfinite(value)) throw UsageError("bvh_units: metres per unit must be positive, got " + std::to_string(value));
     return value;
   }

@@ -63,7 +63,7 @@ scene::RetargetRequest request_from(const std::string& motion, const std::string
       const std::string name = py::str(key);
       double* weight = retarget::refine_weight(request.refine_options.weights, name);
       if (!weight) throw UsageError("weights: unknown weight '" + name + "' (weights: " + weight_names() + ")");
-      const double number = value.cast<double>();
+      const double number = number_argument(value, "weights: " + name);
       if (!(number >= 0) || !std::isfinite(number)) throw UsageError("weights: " + name + " expects a finite number >= 0");
       *weight = number;
     }
@@ -72,7 +72,7 @@ scene::RetargetRequest request_from(const std::string& motion, const std::string
     if (py::isinstance<py::str>(contact_lift) && contact_lift.cast<std::string>() == "off") {
       request.refine_options.contact_lift.reset();
     } else {
-      const double lift = contact_lift.cast<double>();
+      const double lift = number_argument(contact_lift, "contact_lift");
       if (!(lift >= 0) || !std::isfinite(lift)) throw UsageError("contact_lift expects metres >= 0 or 'off'");
       request.refine_options.contact_lift = lift;
     }
@@ -170,8 +170,17 @@ void expose_retarget(py::module_& m) {
               which.resize(clip.frame_count());
               for (int f = 0; f < clip.frame_count(); ++f) which[f] = f;
             } else {
+              if (!py::isinstance<py::iterable>(frames) || py::isinstance<py::str>(frames)) {
+                throw ArrayError("frames: expected frame numbers (a list or an integer array), got " +
+                                 std::string(py::str(py::type::of(frames).attr("__name__"))));
+              }
               for (const auto& item : frames) {
-                const long f = item.cast<long>();
+                long long f = 0;
+                try {
+                  f = integer_argument(item, "frames");
+                } catch (const UsageError& error) {
+                  throw ArrayError(error.what());
+                }
                 if (f < 0 || f >= clip.frame_count()) {
                   throw ArrayError("frames: frame " + std::to_string(f) + " is outside [0, " + std::to_string(clip.frame_count()) + ")");
                 }

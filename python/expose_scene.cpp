@@ -146,7 +146,7 @@ void expose_scene(py::module_& m) {
          const py::object& progress) {
         std::optional<std::string> layout_text;
         if (!layout.is_none()) {
-          layout_text = layout.cast<std::string>();
+          layout_text = text_argument(layout, "layout");
           layout_argument(*layout_text);  // refused before anything is read
         }
         const std::string folder = path_argument(out, "out");

@@ -2,6 +2,9 @@
 
 import json
 import os
+import subprocess
+
+import pytest
 
 import odyssey
 from conftest import CESIUM, FIGURE, WALK
@@ -21,6 +24,22 @@ def test_batch_runs_reports_and_resumes(tmp_path):
     assert report["metrics"] == odyssey.retarget(WALK, FIGURE).report["metrics"]
     again = odyssey.run_batch(out, [WALK], [FIGURE, CESIUM], quality="fast", outputs="report")
     assert again["resumed"] == 2 and again["frames"] == 0
+
+
+def test_an_error_in_the_progress_callback_is_raised_after_the_jobs(tmp_path):
+    calls = []
+
+    def progress(counts):
+        calls.append(counts)
+        raise KeyError("stop")
+
+    with pytest.raises(KeyError, match="stop"):
+        odyssey.run_batch(tmp_path / "b", [WALK], [FIGURE, CESIUM], outputs="report", workers=2, progress=progress)
+    assert len(calls) == 1  # not called again once it raised
+    # The jobs finished and the workers are gone: no child process of this one is left.
+    children = subprocess.run(["ps", "--ppid", str(os.getpid()), "-o", "pid="], capture_output=True, text=True).stdout.split()
+    assert len(children) <= 1  # ps itself
+    assert odyssey.run_batch(tmp_path / "b", [WALK], [FIGURE, CESIUM], outputs="report")["resumed"] == 2
 
 
 def test_a_bad_job_fails_alone(tmp_path):

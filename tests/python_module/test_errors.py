@@ -103,6 +103,19 @@ def test_bad_options_raise_usage_error(tmp_path):
     result = odyssey.retarget(WALK, FIGURE)
     with pytest.raises(ValueError, match=r"frames: frame 100000 is outside \[0, "):
         result.skin(frames=[100000])
+    with pytest.raises(ValueError, match="frames: expected frame numbers"):
+        result.skin(frames="abc")
+    with pytest.raises(ValueError, match="frames: expected an integer, got float"):
+        result.skin(frames=[1.5])
+    assert result.skin(frames=np.array([3], np.int64)).shape[0] == 1
+    with pytest.raises(odyssey.UsageError, match="weights: pose: expected a number, got str"):
+        odyssey.retarget(WALK, FIGURE, "balanced", weights={"pose": "x"})
+    with pytest.raises(odyssey.UsageError, match="contact_lift: expected a number, got list"):
+        odyssey.retarget(WALK, FIGURE, "balanced", contact_lift=[1])
+    with pytest.raises(odyssey.UsageError, match="layout: expected a str, got int"):
+        odyssey.run_scene({"version": 1}, tmp_path / "o", layout=3)
+    with pytest.raises(odyssey.UsageError, match="gates: max_skate: expected a number, got NoneType"):
+        odyssey.run_batch(tmp_path / "b", [WALK], [FIGURE], gates={"max_skate": None})
     with pytest.raises(odyssey.UsageError, match="threads expects"):
         result.skin(threads=0)
     with pytest.raises(odyssey.UsageError, match="fps must be positive"):
