@@ -134,3 +134,67 @@ def test_library_errors_are_odyssey_errors(tmp_path):
     assert type(raised.value) is odyssey.Error
     assert code == 1 and err.strip().splitlines()[-1] == "odyssey scene: error: " + str(raised.value)
     assert "actors 'a' and 'b' overlap at frame 0" in str(raised.value)
+
+
+BAD_VALUES = [None, 0, -1, 42, -1.5, float("nan"), float("inf"), "", "missing.file", [], [None], {}, {"a": object()},
+              np.zeros(3), np.zeros((2, 2), np.float32), np.zeros((0, 165)), object(), b"bytes"]
+
+
+def test_bad_values_into_every_bound_function_raise_and_never_crash(tmp_path):
+    model = odyssey.BodyModel.synthetic()
+    poses = np.zeros((2, model.pose_size))
+    result = odyssey.retarget(WALK, FIGURE)
+    missing = str(tmp_path / "missing.bvh")
+    bad_scene = {"version": 1}
+    calls = {
+        "inspect": lambda v: odyssey.inspect(v),
+        "inspect bvh_units": lambda v: odyssey.inspect(WALK, v),
+        "load_bvh": lambda v: odyssey.load_bvh(v),
+        "load_bvh bvh_units": lambda v: odyssey.load_bvh(WALK, v),
+        "load_amass": lambda v: odyssey.load_amass(v),
+        "Character": lambda v: odyssey.Character(v),
+        "BodyModel": lambda v: odyssey.BodyModel(v),
+        "forward poses": lambda v: model.forward(v),
+        "forward trans": lambda v: model.forward(poses, v),
+        "forward betas": lambda v: model.forward(poses, None, v),
+        "forward expression": lambda v: model.forward(poses, None, None, v),
+        "retarget motion": lambda v: odyssey.retarget(v, FIGURE),
+        "retarget character": lambda v: odyssey.retarget(WALK, v),
+        "retarget quality": lambda v: odyssey.retarget(WALK, FIGURE, v),
+        "retarget fps": lambda v: odyssey.retarget(WALK, FIGURE, fps=v),
+        "retarget parts": lambda v: odyssey.retarget(WALK, FIGURE, parts=v),
+        "retarget map": lambda v: odyssey.retarget(WALK, FIGURE, map=v),
+        "retarget model": lambda v: odyssey.retarget(WALK, FIGURE, model=v),
+        "retarget bvh_units": lambda v: odyssey.retarget(WALK, FIGURE, bvh_units=v),
+        "retarget weights": lambda v: odyssey.retarget(WALK, FIGURE, "balanced", weights=v),
+        "retarget contact_lift": lambda v: odyssey.retarget(WALK, FIGURE, "balanced", contact_lift=v),
+        "retarget threads": lambda v: odyssey.retarget(WALK, FIGURE, threads=v),
+        "skin frames": lambda v: result.skin(frames=v),
+        "skin threads": lambda v: result.skin(frames=[0], threads=v),
+        "resampled": lambda v: result.motion.resampled(v),
+        "run_scene scene": lambda v: odyssey.run_scene(v, tmp_path / "out"),
+        "run_scene out": lambda v: odyssey.run_scene(bad_scene, v),
+        "run_scene layout": lambda v: odyssey.run_scene(bad_scene, tmp_path / "out", layout=v),
+        "run_scene progress": lambda v: odyssey.run_scene(bad_scene, tmp_path / "out", progress=v),
+        "scene_arrays scene": lambda v: odyssey.scene_arrays(v),
+        "scene_arrays base_dir": lambda v: odyssey.scene_arrays(bad_scene, base_dir=v),
+        "run_batch out": lambda v: odyssey.run_batch(v, [missing], [FIGURE]),
+        "run_batch motions": lambda v: odyssey.run_batch(tmp_path / "b", v, [FIGURE]),
+        "run_batch characters": lambda v: odyssey.run_batch(tmp_path / "b", [missing], v),
+        "run_batch manifest": lambda v: odyssey.run_batch(tmp_path / "b", manifest=v),
+        "run_batch workers": lambda v: odyssey.run_batch(tmp_path / "b", [missing], [FIGURE], workers=v),
+        "run_batch gates": lambda v: odyssey.run_batch(tmp_path / "b", [missing], [FIGURE], gates=v),
+        "run_batch shard": lambda v: odyssey.run_batch(tmp_path / "b", [missing], [FIGURE], shard=v),
+        "run_batch max_memory_gib": lambda v: odyssey.run_batch(tmp_path / "b", [missing], [FIGURE], max_memory_gib=v),
+    }
+    if hasattr(odyssey, "run_dataset"):
+        calls["run_dataset recipe"] = lambda v: odyssey.run_dataset(v, tmp_path / "d")
+        calls["run_dataset count"] = lambda v: odyssey.run_dataset({"version": 1}, tmp_path / "d", count=v)
+    for name, call in calls.items():
+        for value in BAD_VALUES:
+            try:
+                call(value)
+            except (odyssey.Error, ValueError, TypeError):
+                pass  # refused with a Python exception: what is asked
+            except Exception as error:  # noqa: BLE001 - any other kind is a finding
+                pytest.fail("%s(%r) raised %s: %s" % (name, value, type(error).__name__, error))
