@@ -92,16 +92,25 @@ def test_an_error_in_the_progress_callback_stops_the_run_and_writes_nothing(tmp_
         odyssey.run_scene(small_scene(), tmp_path / "out", progress=3)
 
 
-def test_example_scene_runs_in_memory():
+def test_example_scene_with_an_ego_camera_equals_the_commands_files(tmp_path):
     example = odyssey.example_scene()
-    assert example["name"] == "indoor" and len(example["cameras"]) == 3
-    example["actors"] = example["actors"][:1]
-    example["actors"][0]["quality"] = "fast"
-    example["actors"][0]["trim"] = [0.1, 0.4]
-    example["cameras"] = [c for c in example["cameras"] if c["type"] != "ego"]
+    assert example["name"] == "indoor" and [c["type"] for c in example["cameras"]] == ["ego", "orbit", "static"]
+    for actor in example["actors"]:
+        actor["trim"] = [0.1, 0.8]  # balanced, as written; 0.7 s of it
+    for key in ("layout", "depth", "normals", "masks", "previews", "glb"):
+        example["outputs"].pop(key, None)
+    path = tmp_path / "indoor.json"
+    path.write_text(json.dumps(example))
+    code, _, err = run_cli("scene", str(path), "--out", str(tmp_path / "cli"), "--quiet")
+    assert code == 0, err
     result = odyssey.scene_arrays(example)
-    assert set(result["cameras"]) == {"orbit", "corner"}
-    assert result["cameras"]["orbit"]["visibs"].any()
+    assert list(result["cameras"]) == ["head", "orbit", "corner"]
+    for camera, arrays in result["cameras"].items():
+        with np.load(tmp_path / "cli" / ("trajectories_%s.npz" % camera)) as files:
+            assert set(arrays) == set(files.files)
+            for key in files.files:
+                assert np.array_equal(arrays[key], files[key]), (camera, key)
+        assert arrays["visibs"].any()
 
 
 def test_long_calls_release_the_gil():
