@@ -1008,7 +1008,7 @@ class CharacterReader {
       const int p = parent_[node];
       const Eigen::Matrix4d above = p < 0 ? Eigen::Matrix4d::Identity() : bind[p];
       if (is_bound_joint[node] && (p < 0 || has_ibm[p])) {
-        bind[node] = above * (p < 0 ? Eigen::Matrix4d::Identity() : ibm[p]) * ibm[node].inverse();
+        bind[node] = above * uniform_part((p < 0 ? Eigen::Matrix4d::Identity() : ibm[p]) * ibm[node].inverse());
       } else {
         bind[node] = above * local_matrix(node_transform(node));
       }
@@ -1047,6 +1047,21 @@ class CharacterReader {
     character.rest_pose_origin = origin.str();
     world_ = std::move(bind);
     bind_pose_adopted_ = true;
+  }
+
+  // A bind local IBM_p IBM_n^-1 = [A | t] as [s R | t], R the rotation closest to A and
+  // s = cbrt(det A): float32 matrices leave a shear and an uneven scale of about 1e-7 in the
+  // product, which no node's translation, rotation and scale could hold (the animated GLB writes
+  // these locals as T R S). The rest mesh, C Gb IBM v, then moves by that much (about 1e-7 of its
+  // size) from M v. A mirroring local (det A < 0) is kept as it is.
+  static Eigen::Matrix4d uniform_part(const Eigen::Matrix4d& local) {
+    const Eigen::Matrix3d linear = local.topLeftCorner<3, 3>();
+    const double det = linear.determinant();
+    if (!(det > 0)) return local;
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(linear, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix4d out = local;
+    out.topLeftCorner<3, 3>() = std::cbrt(det) * (svd.matrixU() * svd.matrixV().transpose());
+    return out;
   }
 
   // When the rest pose is the bind pose, each joint's local matrix there (glTF's frame), for

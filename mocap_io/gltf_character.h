@@ -41,7 +41,9 @@
 // is one matrix M for every joint of a skin, so a joint whose parent also has an inverse bind
 // matrix sits at Gb(n) = Gb(p) IBM_p IBM_n^-1 relative to it; a joint whose parent is the scene
 // root or the skin's `skeleton` node (that node's parent when it is itself a joint) sits at
-// IBM_n^-1 relative to it; every other node, joints outside every skin included, keeps its own
+// IBM_n^-1 relative to it (either local [A | t] taken as [s R | t], R the rotation closest to A
+// and s = cbrt(det A), unless it mirrors: float32 matrices leave a shear of about 1e-7 that no
+// node's T R S could hold); every other node, joints outside every skin included, keeps its own
 // local transform under its parent's bind pose. This is how Blender's importer guesses the
 // original bind pose (its default), and a joint listed by several skins takes the last one's
 // matrix as there. When some skin joint's rotation in Gb differs from the nodes' by more than
