@@ -191,6 +191,9 @@ int sweep_leftovers(const std::string& folder) {
 }
 
 TempFile::TempFile(std::string target) : target_(std::move(target)), temp_(temporary_name(target_)) {
+  // The last guard for writers that stage nothing (pose, make-body, the demo's files): renaming
+  // onto a device node would replace it.
+  require_replaceable_output(target_);
   {
     const std::lock_guard lock(listing().mutex);
     sweep_once(target_);

@@ -12,7 +12,8 @@
 namespace odyssey::io {
 
 // A file open for writing at temporary_name(target): commit() closes it and renames it onto the
-// target; if never committed, the destructor removes it. Errors throw InputError naming the target.
+// target; if never committed, the destructor removes it. Errors throw InputError naming the target,
+// a target that may not be replaced (require_replaceable_output) included.
 class TempFile {
  public:
   explicit TempFile(std::string target);

@@ -149,6 +149,20 @@ TEST(StagedCommitTest, AFailedCommitPutsEveryPreviousOutputBack) {
   EXPECT_TRUE(staged_leftovers(dir).empty()) << staged_leftovers(dir).front();
 }
 
+TEST(StagedCommitTest, AWriterThatStagesNothingNeverReplacesAFifoOrAFolder) {
+  const fs::path dir = test_support::scratch_dir("safety");
+  ASSERT_EQ(::mkfifo((dir / "fifo.json").c_str(), 0644), 0);
+  fs::create_directories(dir / "folder.json");
+  for (const fs::path& target : {dir / "fifo.json", dir / "folder.json"}) {
+    const std::string message =
+        test_support::message_of<io::InputError>([&] { io::write_file_atomically(target.string(), std::string("x")); });
+    EXPECT_TRUE(contains(message, target.string() + ": exists and is a")) << message;
+  }
+  EXPECT_TRUE(fs::is_fifo(dir / "fifo.json"));
+  EXPECT_TRUE(fs::is_directory(dir / "folder.json"));
+  EXPECT_TRUE(staged_leftovers(dir).empty()) << staged_leftovers(dir).front();
+}
+
 TEST(StagedCommitTest, ATargetBlockedAfterStagingReplacesNothingAndIsNamed) {
   const fs::path dir = test_support::scratch_dir("safety");
   std::ofstream(dir / "a.json") << "old a";
