@@ -118,6 +118,7 @@ std::vector<std::string> job_inputs(const Job& job) {
     request_files(job.request);
   } else {
     files.push_back(job.scene_path);
+    require_regular_file(job.scene_path);  // read here, in the batch's own process
     const scene::SceneFile file = scene::read_scene_file(job.scene_path);
     for (const scene::SceneActor& actor : file.scene.actors) {
       if (const auto* request = std::get_if<scene::RetargetRequest>(&actor.source)) request_files(*request);
@@ -248,6 +249,7 @@ nlohmann::ordered_json request_settings_json(const scene::RetargetRequest& reque
 
 BatchSummary run_batch(std::vector<Job> jobs, const BatchOptions& options, const BatchProgressCallback& progress) {
   check_job_names(jobs);
+  for (Job& job : jobs) job.name = normal_job_name(job.name);
   std::sort(jobs.begin(), jobs.end(), [](const Job& a, const Job& b) { return a.name < b.name; });
   std::vector<Job> mine;
   for (std::size_t i = 0; i < jobs.size(); ++i) {
@@ -317,6 +319,20 @@ BatchSummary run_batch(std::vector<Job> jobs, const BatchOptions& options, const
   }
 
   std::vector<Worker> workers;
+  // On an exception (a progress callback that throws, a journal that cannot be written) every
+  // worker is killed and reaped before it propagates; the normal path has waited for them all.
+  struct Reaper {
+    std::vector<Worker>& workers;
+    ~Reaper() {
+      for (Worker& worker : workers) {
+        if (worker.pid <= 0) continue;
+        ::kill(worker.pid, SIGKILL);
+        ::waitpid(worker.pid, nullptr, 0);
+        if (worker.to >= 0) ::close(worker.to);
+        if (worker.from >= 0) ::close(worker.from);
+      }
+    }
+  } reaper{workers};
   const std::size_t memory_limit =
       options.memory_limit_bytes > 0 ? options.memory_limit_bytes : default_memory_limit(options.workers);
   BatchOptions worker_options = options;
@@ -455,6 +471,7 @@ BatchSummary run_batch(std::vector<Job> jobs, const BatchOptions& options, const
     ::waitpid(worker.pid, &status, 0);
     ::close(worker.from);
   }
+  workers.clear();
   std::error_code error;
   fs::remove_all(staging, error);
   fs::remove(staging.parent_path(), error);  // DIR/.staging, unless another shard is using it

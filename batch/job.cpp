@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -90,11 +91,38 @@ std::vector<FoundFile> files_matching(const std::string& pattern, const std::vec
   return found;
 }
 
+// The name with its control characters written as \xNN, for messages.
+std::string printable(const std::string& name) {
+  std::string text;
+  for (char c : name) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+      char escaped[8];
+      std::snprintf(escaped, sizeof escaped, "\\x%02x", static_cast<unsigned char>(c));
+      text += escaped;
+    } else {
+      text += c;
+    }
+  }
+  return text;
+}
+
 void check_safe_name(const std::string& name, const std::string& where) {
   const fs::path path(name);
   bool safe = !name.empty() && path.is_relative() && name.find('\\') == std::string::npos;
   for (const fs::path& part : path) safe = safe && part != "." && part != ".." && !part.empty();
   if (!safe) throw std::invalid_argument(where + ": job name '" + name + "' is not a relative folder name without . or ..");
+  // A control character (a NUL ends the name where the file system reads it) names no folder one can see.
+  if (std::any_of(name.begin(), name.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; })) {
+    throw std::invalid_argument(where + ": job name '" + printable(name) + "' holds a control character");
+  }
+}
+
+// What a job's description says of it, for the message of a collision.
+std::string job_description(const Job& job) {
+  const std::string from = job.source.empty() ? std::string() : " (" + job.source + ")";
+  if (job.task) return job.task->kind() + from;
+  if (!job.scene_path.empty()) return "scene " + job.scene_path + from;
+  return job.request.motion_path + " onto " + job.request.character_path + from;
 }
 
 // One manifest row as text values by column, each with where it was read for errors.
@@ -364,16 +392,25 @@ std::vector<Job> read_manifest(const std::string& path, const JobDefaults& defau
   return jobs;
 }
 
+std::string normal_job_name(const std::string& name) {
+  std::string normal;
+  for (const fs::path& part : fs::path(name)) {
+    if (part.empty()) continue;
+    normal += (normal.empty() ? "" : "/") + part.string();
+  }
+  return normal;
+}
+
 void check_job_names(const std::vector<Job>& jobs) {
+  // By the folder each name makes: "a//b" and "a/b/" are "a/b".
   std::map<std::string, const Job*> by_name;
   for (const Job& job : jobs) {
     check_safe_name(job.name, job.source);
-    const auto [it, inserted] = by_name.emplace(job.name, &job);
+    const auto [it, inserted] = by_name.emplace(normal_job_name(job.name), &job);
     if (!inserted) {
       const Job& other = *it->second;
-      throw std::invalid_argument("two jobs would write into " + job.name + ": " + other.request.motion_path + " onto " +
-                                  other.request.character_path + ", and " + job.request.motion_path + " onto " +
-                                  job.request.character_path + " (rename one, or list the jobs in a manifest with names)");
+      throw std::invalid_argument("two jobs would write into " + it->first + ": " + job_description(other) + ", and " +
+                                  job_description(job) + " (rename one, or list the jobs in a manifest with names)");
     }
   }
   // A job's folder must not hold another's: replacing "a/b" would take "a/b/c" with it. In name

@@ -93,7 +93,11 @@ std::vector<Job> cross_product_jobs(const std::vector<FoundFile>& motions, const
 // Throws io::InputError naming the manifest, the row and the column.
 std::vector<Job> read_manifest(const std::string& path, const JobDefaults& defaults);
 
-// Throws std::invalid_argument when two jobs share a name or a name is not a safe relative path.
+// Throws std::invalid_argument when two jobs would share a folder (names compared as normal_job_name
+// makes them; the message names both jobs and where they came from), or a name is not a safe
+// relative path (".", "..", absolute, a backslash, a control character such as a NUL).
 void check_job_names(const std::vector<Job>& jobs);
+// The folder a name makes: its parts joined by single slashes ("a//b" and "a/b/" are "a/b").
+std::string normal_job_name(const std::string& name);
 
 }  // namespace odyssey::batch

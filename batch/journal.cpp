@@ -153,6 +153,22 @@ std::string hash_file(const std::string& path) {
   return hasher.finish();
 }
 
+static void require_regular_file(const std::string& path, const struct stat& status) {
+  if (S_ISREG(status.st_mode)) return;
+  const char* kind = S_ISDIR(status.st_mode)                            ? "a folder"
+                     : S_ISFIFO(status.st_mode)                         ? "a FIFO"
+                     : S_ISSOCK(status.st_mode)                         ? "a socket"
+                     : S_ISCHR(status.st_mode) || S_ISBLK(status.st_mode) ? "a device"
+                                                                        : "not a file";
+  throw io::InputError(path, std::string("is ") + kind + ", not a regular file");
+}
+
+void require_regular_file(const std::string& path) {
+  struct stat status {};
+  if (::stat(path.c_str(), &status) != 0) throw io::InputError(path, std::string("cannot read: ") + std::strerror(errno));
+  require_regular_file(path, status);
+}
+
 std::string FileHasher::hash(const std::string& path) { return stamp(path)["hash"].get<std::string>(); }
 
 void FileHasher::remember(const std::string& path, const nlohmann::json& stamp) {
@@ -165,6 +181,9 @@ void FileHasher::remember(const std::string& path, const nlohmann::json& stamp) 
 nlohmann::json FileHasher::stamp(const std::string& path) {
   struct stat status {};
   if (::stat(path.c_str(), &status) != 0) throw io::InputError(path, std::string("cannot read: ") + std::strerror(errno));
+  // Hashing reads the file in the batch's own process, before any worker and its timeout: a FIFO
+  // would block it and a device never end. Only regular files are hashed.
+  require_regular_file(path, status);
   Stamp now{static_cast<std::uintmax_t>(status.st_size), mtime_ns(status), ""};
   const auto found = stamps_.find(path);
   if (found != stamps_.end() && found->second.size == now.size && found->second.mtime_ns == now.mtime_ns) {

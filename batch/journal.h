@@ -25,6 +25,10 @@ std::string hash_text(const std::string& text);
 // Throws io::InputError naming the file when it cannot be read.
 std::string hash_file(const std::string& path);
 
+// Throws io::InputError naming the path when it is not a regular file ("is a FIFO, not a regular
+// file") or does not exist: what the batch's own process may read before any worker starts.
+void require_regular_file(const std::string& path);
+
 // Hashes files once per process, trusting an earlier hash while the file's size and modification
 // time are unchanged (as git's index does); stamps from journals seed it.
 class FileHasher {

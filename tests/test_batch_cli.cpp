@@ -21,6 +21,7 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -349,6 +350,66 @@ TEST(BatchCli, AManifestRunsItsRowsWithTheirOwnSettingsAndNames) {
   const nlohmann::json jobs = report_jobs(out / "report.json");
   EXPECT_EQ(jobs["slow/walk"]["frames"], 30);
   EXPECT_EQ(jobs["RiggedFigure/jump"]["frames"], 60);
+}
+
+// A FIFO or a device named by a row is not read by the batch's own process (it would block before
+// any worker and its --timeout): the row's job fails, the others are done, the batch ends.
+TEST(BatchIsolation, FifoAndDeviceInputsFailTheirJobsAndNothingHangs) {
+  const fs::path dir = scratch();
+  const Inputs inputs = make_inputs(dir);
+  ASSERT_EQ(::mkfifo((dir / "motions_fifo.bvh").c_str(), 0600), 0);
+  ASSERT_EQ(::mkfifo((dir / "scene_fifo.json").c_str(), 0600), 0);
+  write(dir / "jobs.json", R"({"jobs": [
+    {"name": "good", "motion": "motions/walk_a.bvh", "character": "chars/CesiumMan.glb"},
+    {"name": "fifo", "motion": "motions_fifo.bvh", "character": "chars/CesiumMan.glb"},
+    {"name": "device", "motion": "/dev/zero", "character": "chars/CesiumMan.glb"},
+    {"name": "scene", "scene": "scene_fifo.json"}]})");
+  const fs::path out = dir / "out";
+  const auto start = std::chrono::steady_clock::now();
+  // `timeout` ends the test's wait, not the batch's work: a batch that hangs fails here.
+  const std::string command = "timeout 120 " + std::string(ODYSSEY_CLI) + " batch --manifest " + quoted(dir / "jobs.json") +
+                              " --out " + quoted(out) + kSettings + " --quiet --jobs 2 --timeout 30 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string output;
+  char buffer[4096];
+  while (std::fgets(buffer, sizeof buffer, pipe)) output += buffer;
+  const int status = pclose(pipe);
+  EXPECT_EQ(WEXITSTATUS(status), 1) << output;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 100) << output;
+  const nlohmann::json jobs = report_jobs(out / "report.json");
+  EXPECT_EQ(jobs["good"]["status"], "done") << jobs.dump(1);
+  for (const char* name : {"fifo", "device", "scene"}) EXPECT_EQ(jobs[name]["status"], "failed") << name;
+  EXPECT_TRUE(contains(jobs["fifo"].value("error", ""), "not a regular file")) << jobs["fifo"];
+  EXPECT_TRUE(contains(jobs["device"].value("error", ""), "not a regular file")) << jobs["device"];
+}
+
+// Names that make one folder ("a//b" and "a/b") or hold a control character are refused before
+// any work, naming both rows.
+TEST(BatchInputsCli, JobNamesAreNormalisedOnceAndCollisionsNameBothRows) {
+  const fs::path dir = scratch();
+  const Inputs inputs = make_inputs(dir);
+  write(dir / "jobs.csv",
+        "name,motion,character\n"
+        "a//b,motions/walk_a.bvh,chars/CesiumMan.glb\n"
+        "a/b,motions/jump.bvh,chars/CesiumMan.glb\n");
+  const fs::path out = dir / "out";
+  auto result = run_cli("batch --manifest " + quoted(dir / "jobs.csv") + " --out " + quoted(out) + kSettings + " --quiet");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_TRUE(contains(result.output, "two jobs would write into a/b")) << result.output;
+  EXPECT_TRUE(contains(result.output, "jobs.csv: line 2")) << result.output;
+  EXPECT_TRUE(contains(result.output, "jobs.csv: line 3")) << result.output;
+  EXPECT_FALSE(fs::exists(out));
+  // One of them alone runs into the folder its normal name makes, under that name.
+  write(dir / "one.csv", "name,motion,character\na//b,motions/walk_a.bvh,chars/CesiumMan.glb\n");
+  result = run_cli("batch --manifest " + quoted(dir / "one.csv") + " --out " + quoted(out) + kSettings + " --quiet");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_TRUE(report_jobs(out / "report.json").contains("a/b"));
+  write(dir / "nul.json", std::string(R"({"jobs": [{"name": "a\u0000b", "motion": "motions/walk_a.bvh", "character": "chars/CesiumMan.glb"}]})"));
+  result = run_cli("batch --manifest " + quoted(dir / "nul.json") + " --out " + quoted(dir / "out2") + kSettings + " --quiet");
+  EXPECT_NE(result.exit_code, 0) << result.output;
+  EXPECT_TRUE(contains(result.output, "job name 'a\\x00b' holds a control character")) << result.output;
+  EXPECT_FALSE(fs::exists(dir / "out2"));
 }
 
 TEST(BatchIsolation, ACrashAHangAndAMemoryBlowUpFailTheirJobsOnly) {
