@@ -361,7 +361,7 @@ std::vector<ConventionCase> convention_cases() {
   std::vector<ConventionCase> cases;
   {
     ConventionCase poser{"PoserDazSecondLife", "poser_bvh", {{"pelvis", "hip"}, {"spine1", "abdomen"}, {"spine3", "chest"},
-                                                             {"neck", "neck"}, {"head", "head"}}};
+                                                             {"neck", "neck"}, {"head", "head"}}, ""};
     for (const auto& [side, s] : {std::pair("left_", "l"), std::pair("right_", "r")}) {
       const std::string p = side, n = s;
       poser.names[p + "collar"] = n + "Collar";
@@ -460,7 +460,9 @@ TEST_P(ConventionTest, EveryJointMapsAsTheConventionSays) {
   }
   // Every canonical joint the file does not name stays unmapped.
   EXPECT_EQ(map.mapped_count(), checked) << c.label;
-  if (!c.extra_root.empty()) EXPECT_EQ(map.canonical_of(rig.find(c.extra_root)), -1);
+  if (!c.extra_root.empty()) {
+    EXPECT_EQ(map.canonical_of(rig.find(c.extra_root)), -1);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Presets, ConventionTest, testing::ValuesIn(convention_cases()),
