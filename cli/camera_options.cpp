@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "mocap_io/input_file.h"
 
 namespace odyssey::cli {
 namespace {
@@ -127,9 +128,8 @@ std::optional<scene::SceneCamera> camera_from_options(const Args& args) {
     throw UsageError(imported ? "--camera " + kind + " needs --camera-file" : "--camera-file is for --camera file, realestate10k or colmap");
   }
   const long long width = args.get_int("width"), height = args.get_int("height");
-  if (width < 1 || height < 1 || width > 1 << 16 || height > 1 << 16) {
-    throw UsageError("--width and --height expect 1 to 65536 pixels");
-  }
+  if (width < 1 || height < 1) throw UsageError("--width and --height expect at least 1 pixel");
+  if (const std::string problem = io::image_size_problem(width, height); !problem.empty()) throw UsageError("--width and --height: " + problem);
   camera.width = static_cast<int>(width);
   camera.height = static_cast<int>(height);
   camera.hfov_deg = args.get_double("hfov");

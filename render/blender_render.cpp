@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "mocap_io/input_error.h"
+#include "mocap_io/input_file.h"
 #include "mocap_io/install_layout.h"
 #include "mocap_io/json_reader.h"
 #include "mocap_io/npy.h"
@@ -165,8 +166,9 @@ Sequence read_sequence(const std::string& folder) {
   const io::JsonDocument info = io::JsonDocument::read_file(info_path);
   const io::JsonValue camera = info.root().member("camera");
   sequence.camera = camera.member("name").string();
-  sequence.width = static_cast<int>(camera.member("width").integer(1, 1 << 16));
-  sequence.height = static_cast<int>(camera.member("height").integer(1, 1 << 16));
+  sequence.width = static_cast<int>(camera.member("width").integer(1, io::kMaxImageSide));
+  sequence.height = static_cast<int>(camera.member("height").integer(1, io::kMaxImageSide));
+  if (const std::string problem = io::image_size_problem(sequence.width, sequence.height); !problem.empty()) camera.member("width").fail(problem);
   sequence.fps = info.root().member("fps").number_in(1e-3, 1e6);
   const long long frames = info.root().member("frames").integer(1, 1LL << 31);
 

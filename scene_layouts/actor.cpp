@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "mocap_io/input_file.h"
 #include "mocap_io/amass.h"
 #include "mocap_io/body_model_file.h"
 #include "mocap_io/bvh.h"
@@ -158,6 +159,8 @@ RetargetedActor retarget_actor(const RetargetRequest& request, const ProgressCal
   auto start = Clock::now();
   Motion motion = load_motion(request, cache);
   actor.source_fps = motion.clip.fps;
+  // The clip at the output rate stays within the frame cap, checked before it is allocated.
+  io::require_frames_within_cap(request.motion_path, motion.clip.frame_count(), motion.clip.fps, request.fps);
   actor.source = motion.clip.resampled(request.fps);
   actor.motion_format = motion.format;
   actor.motion_description = motion.description;

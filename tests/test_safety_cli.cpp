@@ -304,6 +304,12 @@ TEST(SafetyCliTest, AClipWhoseResamplingPassesTheFrameCapIsRefusedBeforeItIsMade
                                                                   "more than the cap of 10000000"))
       << run.output;
   EXPECT_FALSE(fs::exists(dir / "slow.npz"));
+  // Retargeting resamples the clip too: the same cap, before the clip is made.
+  run = test_support::run_cli("retarget --motion " + (dir / "slow.bvh").string() + " --character " + kData +
+                              "/characters/RiggedFigure.glb --out " + (dir / "slow.glb").string());
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_TRUE(contains(run.output, "resampled to 30 fps make 3e+07 frames, more than the cap of 10000000")) << run.output;
+  EXPECT_FALSE(fs::exists(dir / "slow.glb"));
 
   // An AMASS sequence at 1e-9 frames a second.
   BodySequence walk = synthetic_walk(2, 30, BodyModelKind::SMPLX, 0);
@@ -327,6 +333,13 @@ TEST(SafetyCliTest, AnImageTooLargeIsRefusedAtParseTimeNamingItsJsonPath) {
   EXPECT_TRUE(contains(run.output, (dir / "huge.json").string() + ": cameras[1].width: 16384 x 16384 pixels is larger than the cap "
                                                                   "of 16384 a side and 33554432 pixels in all"))
       << run.output;
+  // The single-actor commands' --width and --height, the same cap.
+  const test_support::CliResult wide = test_support::run_cli(
+      "trajectories --motion " + kData + "/mocap/cmu_walk_cgspeed.bvh --character " + kData +
+      "/characters/RiggedFigure.glb --camera static --width 20000 --height 100 --out " + (dir / "wide.npz").string());
+  EXPECT_EQ(wide.exit_code, 2) << wide.output;
+  EXPECT_TRUE(contains(wide.output, "--width and --height: 20000 x 100 pixels is larger than the cap")) << wide.output;
+  EXPECT_FALSE(fs::exists(dir / "wide.npz"));
 }
 
 TEST(SafetyCliTest, AnEgoCameraOnAnActorWithoutABoneMapIsRefusedNamingItsJsonPath) {
