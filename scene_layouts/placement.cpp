@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <stdexcept>
 
+#include "mocap_io/input_error.h"
 #include "scene_layouts/seeded_uniform.h"
 
 namespace odyssey::scene {
@@ -30,12 +32,23 @@ double actor_clip_end(const SceneActor& actor, double start, const Clip& clip) {
   return start + std::max(trim_end - actor.trim_start_s, 0.0) / actor.speed;
 }
 
+// Actor a's problem, named by the scene file and the JSON path (`key` below actors[a]) where the
+// scene came from a file (io::InputError), else by the actor's name (std::invalid_argument).
+[[noreturn]] void actor_error(const Scene& scene, std::size_t a, const std::string& key, const std::string& problem) {
+  if (!scene.file.empty()) throw io::InputError(scene.file, "actors[" + std::to_string(a) + "]" + key + ": " + problem);
+  throw std::invalid_argument("actor '" + scene.actors[a].name + "': " + problem);
+}
+
 // The clip times of the scene's frames: frame f at c(f / fps) (scene.h).
-std::vector<double> timeline_times(const SceneActor& actor, double start, const Clip& clip, int frames, double fps) {
+std::vector<double> timeline_times(const Scene& scene, std::size_t a, double start, const Clip& clip, int frames) {
+  const SceneActor& actor = scene.actors[a];
+  const double fps = scene.fps;
   const double trim_end = std::min(actor.trim_end_s.value_or(clip.duration()), clip.duration());
   if (actor.trim_start_s > trim_end) {
-    throw std::invalid_argument("actor '" + actor.name + "': trim starts at " + std::to_string(actor.trim_start_s) +
-                                " s, after the clip's end at " + std::to_string(clip.duration()) + " s");
+    char problem[160];
+    std::snprintf(problem, sizeof problem, "the trim starts at %.6g s, after the clip's end at %.6g s", actor.trim_start_s,
+                  clip.duration());
+    actor_error(scene, a, ".trim", problem);
   }
   std::vector<double> times(frames);
   for (int f = 0; f < frames; ++f) {
@@ -118,7 +131,7 @@ int first_overlap(const Footprint& candidate, const std::vector<Footprint>& plac
 Footprint place_actor(const Scene& scene, std::size_t a, int frames, const std::vector<Footprint>& placed, PlacedActor& actor) {
   const SceneActor& spec = scene.actors[a];
   const ActorMotion& motion = *actor.motion;
-  const std::vector<double> times = timeline_times(spec, actor.start_s, motion.clip, frames, scene.fps);
+  const std::vector<double> times = timeline_times(scene, a, actor.start_s, motion.clip, frames);
   const Clip timed = motion.clip.sampled_at(times, scene.fps);
   if (motion.vertex_animation) actor.vertex_animation = motion.vertex_animation->sampled_at(times, scene.fps);
   const int root = motion.root_joint;
@@ -152,8 +165,9 @@ Footprint place_actor(const Scene& scene, std::size_t a, int frames, const std::
       if (other < 0) break;
     }
     if (other >= 0) {
-      throw std::invalid_argument("actor '" + spec.name + "': no placement in its region keeps it clear of actor '" +
-                                  scene.actors[other].name + "' (" + std::to_string(kDraws) + " draws); widen the region");
+      actor_error(scene, a, ".placement.region",
+                  "no placement in the region keeps it clear of actor '" + scene.actors[other].name + "' (" + std::to_string(kDraws) +
+                      " draws); widen the region");
     }
     return footprint;
   }
@@ -167,10 +181,11 @@ Footprint place_actor(const Scene& scene, std::size_t a, int frames, const std::
     place(placement.x, placement.y, placement.yaw_deg);
   }
   if (const int other = first_overlap(footprint, placed, frame); other >= 0) {
-    throw std::invalid_argument("actors '" + scene.actors[other].name + "' and '" + spec.name + "' overlap at frame " +
+    const std::string problem = "actors '" + scene.actors[other].name + "' and '" + spec.name + "' overlap at frame " +
                                 std::to_string(frame) + ": their roots come within " +
-                                std::to_string(placed[other].radius + footprint.radius) +
-                                " m; place them apart or shift them in time");
+                                std::to_string(placed[other].radius + footprint.radius) + " m; place them apart or shift them in time";
+    if (!scene.file.empty()) throw io::InputError(scene.file, "actors[" + std::to_string(a) + "].placement: " + problem);
+    throw std::invalid_argument(problem);
   }
   return footprint;
 }

@@ -322,6 +322,25 @@ TEST(SafetyCliTest, AClipWhoseResamplingPassesTheFrameCapIsRefusedBeforeItIsMade
   EXPECT_TRUE(contains(run.output, "resampled to 30 fps make 3e+10 frames, more than the cap of 10000000")) << run.output;
 }
 
+// Problems found only once the clips are loaded name the scene file and the JSON path too.
+TEST(SafetyCliTest, ErrorsAfterParsingNameTheFileAndJsonPath) {
+  const fs::path dir = test_support::scratch_dir("safety_cli");
+  const std::string actor = R"("motion": ")" + kData + R"(/mocap/cmu_walk_cgspeed.bvh", "bvh_units": "cmu", "quality": "fast",
+      "character": ")" + kData + R"(/characters/RiggedFigure.glb")";
+  std::ofstream(dir / "trim.json") << R"({"version": 1, "actors": [{"name": "a", )" << actor << R"(, "trim": [100, 200]}],
+      "cameras": [{"type": "static"}]})";
+  test_support::CliResult run = test_support::run_cli("scene " + (dir / "trim.json").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_TRUE(contains(run.output, (dir / "trim.json").string() + ": actors[0].trim: the trim starts at 100 s, after the clip's end at"))
+      << run.output;
+  std::ofstream(dir / "region.json") << R"({"version": 1, "actors": [{"name": "a", )" << actor << R"(, "placement": {"x": 0, "y": 0, "yaw": 0}},
+      {"name": "b", )" << actor << R"(, "placement": {"region": [0, 0, 0.01, 0.01]}}], "cameras": [{"type": "static"}]})";
+  run = test_support::run_cli("scene " + (dir / "region.json").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_TRUE(contains(run.output, (dir / "region.json").string() + ": actors[1].placement.region: no placement in the region keeps it clear of actor 'a'"))
+      << run.output;
+}
+
 TEST(SafetyCliTest, AnImageTooLargeIsRefusedAtParseTimeNamingItsJsonPath) {
   const fs::path dir = test_support::scratch_dir("safety_cli");
   std::ofstream(dir / "huge.json") << R"({"version": 1, "actors": [{"motion": ")" << kData
