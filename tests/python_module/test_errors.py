@@ -132,7 +132,8 @@ def test_library_errors_are_odyssey_errors(tmp_path):
     with pytest.raises(odyssey.Error) as raised:
         odyssey.scene_arrays(scene)
     assert type(raised.value) is odyssey.Error
-    assert code == 1 and err.strip().splitlines()[-1] == "odyssey scene: error: " + str(raised.value)
+    # From a file the command also names it and the JSON path; the problem's words are the same.
+    assert code == 1 and err.strip().splitlines()[-1] == "odyssey scene: " + str(path) + ": actors[1].placement: " + str(raised.value)
     assert "actors 'a' and 'b' overlap at frame 0" in str(raised.value)
 
 
