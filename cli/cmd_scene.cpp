@@ -54,7 +54,18 @@ int run_scene(const std::vector<std::string>& arguments) {
     if (layout != "files" && layout != "pointodyssey") throw UsageError("--layout expects files or pointodyssey, got '" + layout + "'");
     file.outputs.layout = layout == "files" ? scene::OutputSelection::Layout::files : scene::OutputSelection::Layout::pointodyssey;
   }
+  // A run that fails leaves no folder it made (the outputs go in only when all are ready).
+  std::error_code ignored;
+  const bool made = !std::filesystem::exists(out, ignored);
   std::filesystem::create_directories(out);
+  struct RemoveIfEmpty {
+    std::string folder;
+    bool armed;
+    ~RemoveIfEmpty() {
+      std::error_code error;
+      if (armed && std::filesystem::is_empty(folder, error) && !error) std::filesystem::remove(folder, error);
+    }
+  } cleanup{out, made};
   scene::set_outputs_in_folder(file.scene, out, file.outputs);
   const bool quiet = args.get_flag("quiet");
   const bool interactive = ::isatty(STDOUT_FILENO) != 0;
@@ -77,6 +88,7 @@ int run_scene(const std::vector<std::string>& arguments) {
     }
     std::fflush(stdout);
   });
+  cleanup.armed = false;
   std::printf("scene      %s: %zu actor(s), %zu prop(s), %zu camera(s), %d frames at %.6g fps\n", result.name.c_str(),
               result.actors.size(), result.props.names.size(), result.cameras.size(), result.frames, result.fps);
   for (const scene::PlacedActor& actor : result.actors) {

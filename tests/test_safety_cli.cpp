@@ -333,6 +333,7 @@ TEST(SafetyCliTest, ErrorsAfterParsingNameTheFileAndJsonPath) {
   EXPECT_EQ(run.exit_code, 1) << run.output;
   EXPECT_TRUE(contains(run.output, (dir / "trim.json").string() + ": actors[0].trim: the trim starts at 100 s, after the clip's end at"))
       << run.output;
+  EXPECT_FALSE(fs::exists(dir / "out")) << "the folder the failed run made is gone";
   std::ofstream(dir / "region.json") << R"({"version": 1, "actors": [{"name": "a", )" << actor << R"(, "placement": {"x": 0, "y": 0, "yaw": 0}},
       {"name": "b", )" << actor << R"(, "placement": {"region": [0, 0, 0.01, 0.01]}}], "cameras": [{"type": "static"}]})";
   run = test_support::run_cli("scene " + (dir / "region.json").string() + " --out " + (dir / "out").string());
