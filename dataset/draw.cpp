@@ -84,8 +84,7 @@ std::string sequence_name(const Recipe& recipe, long index) {
 
 std::string split_of(const Recipe& recipe, long index) {
   Draws draws(sequence_seed(recipe, index), kSplitStream);
-  Shares shares = recipe.splits;
-  return draws.pick(shares);
+  return draws.pick(recipe.splits);
 }
 
 std::vector<std::size_t> assets_of_split(const Recipe& recipe, const std::string& kind, const std::string& split) {

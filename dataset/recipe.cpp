@@ -4,7 +4,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <map>
 #include <set>
 
 #include "batch/job.h"
@@ -252,10 +251,12 @@ std::vector<TrackAsset> read_tracks(const std::optional<JsonValue>& list, const 
 // The props of a layout's scene file, mesh paths made absolute (so the dataset's scene files name
 // them from anywhere), and the region its actors stand in.
 LayoutAsset read_layout_props(LayoutAsset layout, const std::optional<JsonValue>& object) {
-  const io::JsonDocument document = io::JsonDocument::read_file(layout.file);
+  // Read once: the scene reader checks every prop (naming the layout's file and JSON path), the
+  // document keeps the props as written.
+  const std::string text = io::read_text_file(layout.file);
+  const io::JsonDocument document = io::JsonDocument::parse(text, layout.file);
   const JsonValue root = document.root();
-  // The scene reader checks every prop (and names the layout's file and JSON path).
-  const scene::SceneFile scene_file = scene::read_scene_file(layout.file);
+  const scene::SceneFile scene_file = scene::parse_scene(text, layout.file);
   const std::optional<JsonValue> props = root.find("props");
   if (!props || props->size() == 0) root.fail("a layout needs props (the room)");
   layout.props = nlohmann::ordered_json::array();
