@@ -8,6 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <span>
 #include <stdexcept>
 
 #include "mocap_io/input_error.h"
@@ -171,14 +172,26 @@ void write_camera_path_json(const std::string& path, const CameraPath& camera) {
   // validate() allows an empty path, but the reader rejects one: refuse to write a file that
   // could not be read back.
   if (camera.poses.empty()) throw std::invalid_argument("camera path has no frames");
-  OrderedJson document;
-  document["format"] = kFormat;
-  document["version"] = kVersion;
-  document["kind"] = camera.kind;
-  document["fps"] = camera.fps;
-  document["frame_count"] = camera.poses.size();
-  document["conventions"] = kConventions;
-  OrderedJson frames = OrderedJson::array();
+  // The text is what dump(2) of the whole document gives, written a frame at a time so memory
+  // does not grow with the frame count (a 100,000-frame path is about 90 MB of text). The head
+  // is the document without "frames", its closing "\n}" replaced by the opening of "frames";
+  // each frame is dumped alone and indented by the two levels it sits at (dump(2) of an element
+  // at depth d is its own dump(2) with 2d spaces after every newline; a frame holds numbers
+  // only, so every newline in it is layout). nlohmann writes doubles with the shortest digits
+  // that read back to the same double, so a round trip through the file is exact.
+  OrderedJson head;
+  head["format"] = kFormat;
+  head["version"] = kVersion;
+  head["kind"] = camera.kind;
+  head["fps"] = camera.fps;
+  head["frame_count"] = camera.poses.size();
+  head["conventions"] = kConventions;
+  std::string text = head.dump(2);  // throws before any file exists when kind is not UTF-8
+  text.resize(text.size() - 2);     // "\n}"
+  text += ",\n  \"frames\": [\n";
+
+  TempFile file(path);
+  const auto write = [&file](const std::string& bytes) { file.write(std::as_bytes(std::span(bytes.data(), bytes.size()))); };
   for (std::size_t f = 0; f < camera.poses.size(); ++f) {
     const PinholeIntrinsics& k = camera.intrinsics[f];
     const CameraPose& pose = camera.poses[f];
@@ -191,12 +204,16 @@ void write_camera_path_json(const std::string& path, const CameraPath& camera) {
     frame["extrinsics"] = rows_of(pose.extrinsics());
     const Eigen::Vector3d centre = pose.centre();
     frame["centre"] = OrderedJson::array({centre.x(), centre.y(), centre.z()});
-    frames.push_back(std::move(frame));
+    text += "    ";
+    for (const char c : frame.dump(2)) {
+      text += c;
+      if (c == '\n') text += "    ";
+    }
+    text += f + 1 < camera.poses.size() ? ",\n" : "\n  ]\n}\n";
+    write(text);
+    text.clear();
   }
-  document["frames"] = std::move(frames);
-  // nlohmann writes doubles with the shortest digits that read back to the same double, so a
-  // round trip through the file is exact.
-  write_file_atomically(path, document.dump(2) + "\n");
+  file.commit();
 }
 
 CameraPath read_camera_path_json(const std::string& path) {

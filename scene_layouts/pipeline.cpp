@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <variant>
 
-#include "mocap_io/input_error.h"
+#include "mocap_io/output_file.h"
 #include "scene_layouts/pointodyssey.h"
 #include "scene_layouts/preview.h"
 #include "scene_layouts/sinks.h"
@@ -52,19 +52,6 @@ std::vector<std::string> scene_inputs(const Scene& scene) {
   return inputs;
 }
 
-// The output `path` is not one of the inputs: the same file by its path made absolute and
-// normal, or by device and inode where both exist (links, other spellings).
-void require_not_an_input(const std::string& path, const std::vector<std::string>& inputs) {
-  namespace fs = std::filesystem;
-  const fs::path normal = fs::absolute(path).lexically_normal();
-  for (const std::string& input : inputs) {
-    std::error_code error;
-    if (fs::absolute(input).lexically_normal() == normal || fs::equivalent(input, path, error)) {
-      throw io::InputError(path, "is also an input of this run (" + input + "): an output never replaces an input");
-    }
-  }
-}
-
 // Every output path the scene names may be replaced (io::require_replaceable_output) and is not an
 // input of the scene, checked before any work is done.
 void require_replaceable_outputs(const Scene& scene) {
@@ -73,7 +60,7 @@ void require_replaceable_outputs(const Scene& scene) {
   const auto check = [&](const std::string& path, bool folder) {
     if (path.empty()) return;
     io::require_replaceable_output(path, folder);
-    require_not_an_input(path, inputs);
+    io::require_not_an_input(path, inputs);
   };
   for (const std::vector<std::string>* paths : {&outputs.trajectories, &outputs.camera_paths, &outputs.point_caches,
                                                 &outputs.previews, &outputs.rest_objs, &outputs.actor_reports}) {
