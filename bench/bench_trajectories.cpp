@@ -101,7 +101,7 @@ std::string scratch(const std::string& name) {
 
 // Runs the frame loop stage on one actor into one sink and finishes it: what every command and
 // scene does after prepare_shot.
-double run_once(const Subject& subject, const Clip& clip, const CameraPath* camera, scene::StreamSink& sink) {
+double run_once(const Subject& subject, const scene::TimedClip& clip, const CameraPath* camera, scene::StreamSink& sink) {
   scene::StreamActor actor;
   actor.name = subject.name;
   actor.character = &subject.character;
@@ -120,14 +120,14 @@ double run_once(const Subject& subject, const Clip& clip, const CameraPath* came
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-double export_trajectories_once(const Subject& subject, const Clip& clip, const CameraPath& camera) {
+double export_trajectories_once(const Subject& subject, const scene::TimedClip& clip, const CameraPath& camera) {
   const std::string path = scratch(subject.name + ".npz");
   const auto start = std::chrono::steady_clock::now();
   scene::StreamActor actor;
   actor.character = &subject.character;
   actor.points = subject.points;
   io::StagedOutputs staged;
-  scene::TrajectorySink sink(0, path, scene::trajectory_file_header(std::span(&actor, 1), nullptr, clip.frame_count(), clip.fps),
+  scene::TrajectorySink sink(0, path, scene::trajectory_file_header(std::span(&actor, 1), nullptr, clip.frame_count(), clip.fps()),
                              false, staged);
   run_once(subject, clip, &camera, sink);
   staged.commit();
@@ -136,7 +136,7 @@ double export_trajectories_once(const Subject& subject, const Clip& clip, const 
   return seconds;
 }
 
-double export_point_cache_once(const Subject& subject, const Clip& clip) {
+double export_point_cache_once(const Subject& subject, const scene::TimedClip& clip) {
   const std::string path = scratch(subject.name + ".pc2"), obj_path = scratch(subject.name + ".obj");
   const auto start = std::chrono::steady_clock::now();
   io::StagedOutputs staged;
@@ -188,12 +188,12 @@ MemoryRow measure_memory(const std::string& subject_name, const std::string& str
   if (child == 0) {
     close(pipe_fds[0]);
     const Subject subject = load_subject(subject_name);
-    const Clip clip = jump_clip(subject, frames);
-    const CameraPath camera = orbit(clip);
+    const scene::TimedClip clip(jump_clip(subject, frames));
+    const CameraPath camera = orbit(clip.source());
     const bool reset = reset_peak_rss();
     double values[3] = {status_mib(reset ? "VmRSS" : "VmHWM"), 0,
-                        (clip.rotations.size() * sizeof(Eigen::Quaterniond) +
-                         clip.translations.size() * sizeof(Eigen::Vector3d)) / 1048576.0};
+                        (clip.source().rotations.size() * sizeof(Eigen::Quaterniond) +
+                         clip.source().translations.size() * sizeof(Eigen::Vector3d)) / 1048576.0};
     if (stream == "trajectories") {
       export_trajectories_once(subject, clip, camera);
     } else {
@@ -232,14 +232,14 @@ int main(int argc, char** argv) {
 
   std::vector<Subject> subjects;
   for (const char* name : {"RiggedFigure", "SMPL-X body"}) subjects.push_back(load_subject(name));
-  std::vector<Clip> clips;
-  for (const Subject& subject : subjects) clips.push_back(jump_clip(subject, 1000));
+  std::vector<scene::TimedClip> clips;
+  for (const Subject& subject : subjects) clips.emplace_back(jump_clip(subject, 1000));
   std::vector<CameraPath> cameras;
-  for (const Clip& clip : clips) cameras.push_back(orbit(clip));
+  for (const scene::TimedClip& clip : clips) cameras.push_back(orbit(clip.source()));
 
   for (std::size_t s = 0; s < subjects.size(); ++s) {
     const Subject* subject = &subjects[s];
-    const Clip* clip = &clips[s];
+    const scene::TimedClip* clip = &clips[s];
     const CameraPath* camera = &cameras[s];
     const std::string trajectories = subject->name + "/trajectories", cache = subject->name + "/point cache";
     rates[trajectories] = {1e300, double(clip->frame_count()), double(kPoints)};

@@ -60,4 +60,28 @@ int add_actor_colliders(PhysicsScene& scene, const std::vector<std::vector<Eigen
   return added;
 }
 
+int add_actor_colliders(PhysicsScene& scene, const std::vector<std::vector<Eigen::Vector3d>>& bone_hulls,
+                        std::function<void(int frame, std::span<Pose> bone_world)> bone_world, double friction, double restitution) {
+  KinematicSet set;
+  std::vector<int> bone_of;  // collider k is bone bone_of[k]
+  for (std::size_t b = 0; b < bone_hulls.size(); ++b) {
+    if (bone_hulls[b].empty()) continue;
+    KinematicCollider collider;
+    collider.points = bone_hulls[b];
+    collider.friction = friction;
+    collider.restitution = restitution;
+    set.colliders.push_back(std::move(collider));
+    bone_of.push_back(static_cast<int>(b));
+  }
+  const int added = static_cast<int>(set.colliders.size());
+  if (added == 0) return 0;
+  set.poses = [bone_world = std::move(bone_world), bone_of, bones = bone_hulls.size()](int frame, std::span<Pose> poses) {
+    std::vector<Pose> all(bones);
+    bone_world(frame, all);
+    for (std::size_t k = 0; k < bone_of.size(); ++k) poses[k] = all[bone_of[k]];
+  };
+  scene.kinematic_sets.push_back(std::move(set));
+  return added;
+}
+
 }  // namespace odyssey::physics

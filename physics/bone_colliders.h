@@ -30,5 +30,10 @@ std::vector<std::vector<Eigen::Vector3d>> fit_bone_colliders(std::span<const Eig
 // added. Throws std::invalid_argument when the track's size is not frame_count times the bone count.
 int add_actor_colliders(PhysicsScene& scene, const std::vector<std::vector<Eigen::Vector3d>>& bone_hulls, std::span<const Pose> bone_world_track,
                         double friction = kDefaultFriction, double restitution = kDefaultRestitution);
+// The same posed frame by frame (a KinematicSet): bone_world(f, out) writes every bone's world
+// frame at output frame f (out.size() is the bone count). Returns how many colliders were added.
+int add_actor_colliders(PhysicsScene& scene, const std::vector<std::vector<Eigen::Vector3d>>& bone_hulls,
+                        std::function<void(int frame, std::span<Pose> bone_world)> bone_world, double friction = kDefaultFriction,
+                        double restitution = kDefaultRestitution);
 
 }  // namespace odyssey::physics

@@ -235,6 +235,18 @@ PhysicsModel::PhysicsModel(PhysicsScene scene) : scene_(std::move(scene)) {
     Shape shape = Shape::hull(collider.points);
     colliders_.push_back(prepare_convex(shape, hulls_of(shape, who), Eigen::Isometry3d::Identity()));
   }
+  for (std::size_t s = 0; s < scene_.kinematic_sets.size(); ++s) {
+    const KinematicSet& set = scene_.kinematic_sets[s];
+    if (!set.poses) fail("kinematic set " + std::to_string(s), "has no pose function");
+    for (std::size_t i = 0; i < set.colliders.size(); ++i) {
+      const std::string who = "kinematic set " + std::to_string(s) + ", collider " + std::to_string(i);
+      const KinematicCollider& collider = set.colliders[i];
+      check_surface(collider.friction, collider.restitution, who);
+      if (!collider.track.empty()) fail(who, "a collider of a set is posed by the set, not by a track");
+      Shape shape = Shape::hull(collider.points);
+      colliders_.push_back(prepare_convex(shape, hulls_of(shape, who), Eigen::Isometry3d::Identity()));
+    }
+  }
   const double last_time = (scene_.frame_count - 1) / scene_.fps;
   for (std::size_t i = 0; i < scene_.impulses.size(); ++i) {
     const std::string who = "impulse " + std::to_string(i);
@@ -279,7 +291,8 @@ enum CollisionGroup : int { kPropGroup = 1, kStaticGroup = 2, kKinematicGroup = 
 // bodies are removed before the world is destroyed.
 class BulletWorld {
  public:
-  explicit BulletWorld(const PhysicsModel& model) {
+  // `kinematic_start`: every kinematic collider's pose at frame 0, as model.colliders() lists them.
+  BulletWorld(const PhysicsModel& model, std::span<const Pose> kinematic_start) {
     // Several contact points from the first touch (perturbed queries) rather than one per
     // substep accumulated over time: boxes settle flat at once, and a tumbling prop's next corner
     // is in the manifold before it reaches the floor (with 6 perturbations against the plane the
@@ -334,9 +347,14 @@ class BulletWorld {
       props_.push_back(body.get());
       bodies_.push_back(std::move(body));
     }
-    for (std::size_t i = 0; i < scene.colliders.size(); ++i) {
-      const KinematicCollider& collider = scene.colliders[i];
-      auto motion = std::make_unique<btDefaultMotionState>(bt(collider.track[0]));
+    std::vector<const KinematicCollider*> colliders;
+    for (const KinematicCollider& collider : scene.colliders) colliders.push_back(&collider);
+    for (const KinematicSet& set : scene.kinematic_sets) {
+      for (const KinematicCollider& collider : set.colliders) colliders.push_back(&collider);
+    }
+    for (std::size_t i = 0; i < colliders.size(); ++i) {
+      const KinematicCollider& collider = *colliders[i];
+      auto motion = std::make_unique<btDefaultMotionState>(bt(kinematic_start[i]));
       btRigidBody::btRigidBodyConstructionInfo info(0, motion.get(), shape(model.colliders()[i]));
       info.m_friction = collider.friction;
       info.m_restitution = collider.restitution;
@@ -437,6 +455,22 @@ Pose interpolate(const Pose& a, const Pose& b, double s) {
   return pose;
 }
 
+// Every kinematic collider's pose at one frame, as model.colliders() lists them: the tracked ones
+// from their tracks, then each set's from its function (checked as it comes).
+void kinematic_poses(const PhysicsScene& scene, int frame, std::vector<Pose>& poses) {
+  poses.resize(0);
+  for (const KinematicCollider& collider : scene.colliders) poses.push_back(collider.track[frame]);
+  for (std::size_t s = 0; s < scene.kinematic_sets.size(); ++s) {
+    const KinematicSet& set = scene.kinematic_sets[s];
+    const std::size_t first = poses.size();
+    poses.resize(first + set.colliders.size());
+    set.poses(frame, std::span(poses).subspan(first, set.colliders.size()));
+    for (std::size_t i = 0; i < set.colliders.size(); ++i) {
+      check_pose(poses[first + i], "kinematic set " + std::to_string(s) + ", collider " + std::to_string(i), "frame " + std::to_string(frame));
+    }
+  }
+}
+
 }  // namespace
 
 PropMotion simulate(const PhysicsModel& model) {
@@ -453,7 +487,10 @@ PropMotion simulate(const PhysicsModel& model) {
   motion.rotations.resize(static_cast<std::size_t>(scene.frame_count) * props * 4);
   motion.reports.resize(props);
 
-  BulletWorld bullet(model);
+  // The kinematic colliders' poses at the previous frame and at the one being stepped to.
+  std::vector<Pose> before, after;
+  kinematic_poses(scene, 0, after);
+  BulletWorld bullet(model, after);
   std::vector<btTransform> to_prop(props);  // body frame -> prop frame
   for (int i = 0; i < props; ++i) to_prop[i] = bt(model.props()[i].principal).inverse();
 
@@ -492,13 +529,12 @@ PropMotion simulate(const PhysicsModel& model) {
   std::vector<char> touched_this_frame(props);
   long long substep_index = 0;
   for (int frame = 1; frame < scene.frame_count; ++frame) {
+    std::swap(before, after);
+    kinematic_poses(scene, frame, after);
     std::fill(touched_this_frame.begin(), touched_this_frame.end(), 0);
     for (int k = 0; k < substeps; ++k, ++substep_index) {
       const double s = static_cast<double>(k + 1) / substeps;
-      for (std::size_t c = 0; c < scene.colliders.size(); ++c) {
-        const auto& track = scene.colliders[c].track;
-        bullet.kinematic()[c]->setWorldTransform(bt(interpolate(track[frame - 1], track[frame], s)));
-      }
+      for (std::size_t c = 0; c < after.size(); ++c) bullet.kinematic()[c]->setWorldTransform(bt(interpolate(before[c], after[c], s)));
       for (; next_kick < kicks.size() && kicks[next_kick].first <= substep_index; ++next_kick) {
         const Impulse& impulse = scene.impulses[kicks[next_kick].second];
         btRigidBody* body = bullet.props()[impulse.prop];

@@ -46,6 +46,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <functional>
+#include <span>
 #include <vector>
 
 namespace odyssey::physics {
@@ -108,6 +110,18 @@ struct KinematicCollider {
   double restitution = kDefaultRestitution;
 };
 
+// Colliders posed frame by frame instead of by stored tracks (an actor's bones, posed from its
+// clip as the simulation needs them, so a long shot holds no track): poses(f, out) writes the pose
+// at output frame f of every collider of the set, colliders[k] at out[k] (their `track` is left
+// empty). simulate() asks for each frame once, in order from 0; the function must give the same
+// poses for the same frame whichever thread calls it. A pose that is not finite or not a unit
+// rotation stops the simulation with std::invalid_argument naming the set, the collider and the
+// frame.
+struct KinematicSet {
+  std::vector<KinematicCollider> colliders;
+  std::function<void(int frame, std::span<Pose> poses)> poses;
+};
+
 // An instantaneous kick, applied at the start of the first substep at or after `time`.
 struct Impulse {
   double time = 0;  // s, in [0, (frame_count - 1) / fps]
@@ -128,6 +142,7 @@ struct PhysicsScene {
   std::vector<StaticBody> statics;
   std::vector<DynamicProp> props;
   std::vector<KinematicCollider> colliders;
+  std::vector<KinematicSet> kinematic_sets;  // posed after `colliders`, set after set
   std::vector<Impulse> impulses;
 };
 
@@ -161,6 +176,7 @@ class PhysicsModel {
   int substeps_per_frame() const { return substeps_; }
   const std::vector<PreparedShape>& statics() const { return statics_; }
   const std::vector<PreparedProp>& props() const { return props_; }
+  // The colliders', then every kinematic set's, in order.
   const std::vector<PreparedShape>& colliders() const { return colliders_; }
 
  private:

@@ -72,6 +72,22 @@ std::string length_text(const PlaybackLength& length) {
   return "once";
 }
 
+// The played length of a source of `duration` s (node_animation.h's played_seconds), and whether it
+// wraps. A pass is stored whole, so it too must stay within the frame cap.
+void set_playback(ActorMotion& motion, const std::string& who, double duration, double fps, const PlaybackLength& length) {
+  constexpr double kMaxFrames = 10'000'000;
+  if (duration * fps >= kMaxFrames) {
+    throw std::invalid_argument(who + "one pass of " + std::to_string(duration) + " s at " + std::to_string(fps) +
+                                " fps is more than 10000000 frames");
+  }
+  const double played = played_seconds(who, duration, fps, length.loops, length.seconds, kMaxFrames);
+  // Key times are float32 (17 / 24 s is a little short): a length within 1e-4 of a frame period of
+  // a whole number of frames is that many, so its last frame is played (loop_time shows the end).
+  const double whole = std::round(played * fps);
+  motion.played_seconds = std::abs(played * fps - whole) < 1e-4 ? whole / fps : played;
+  motion.loops = length.loops.value_or(1) > 1 || length.seconds.has_value();
+}
+
 }  // namespace
 
 const char* actor_source_name(ActorSourceKind kind) {
@@ -96,10 +112,16 @@ ActorMotion play_character_animation(const AnimationRequest& request, LoadCache*
   motion.character = cache ? *cache->character(path) : io::load_character(path);
   const NodeAnimation animation = io::load_gltf_animation(path, request.animation);
   motion.warnings = animation.warnings;
+  // One pass, first key to last, at the request's rate rounded up to n frame periods a pass, so
+  // that a frame falls on the last key; the shot evaluates the keys themselves (motion.keys).
+  const double duration = animation.duration();
   try {
-    const std::vector<double> times =
-        looped_animation_times(animation, request.fps, request.length.loops, request.length.seconds);
-    motion.clip = play_node_animation(motion.character, animation, times, request.fps);
+    set_playback(motion, "animation '" + request.animation + "': ", duration, request.fps, request.length);
+    const int periods = duration > 0 ? std::max(1, static_cast<int>(std::ceil(duration * request.fps - 1e-4))) : 0;
+    std::vector<double> times(periods + 1);
+    for (int k = 0; k <= periods; ++k) times[k] = animation.start + (k == periods ? duration : k * (duration / periods));
+    motion.clip = play_node_animation(motion.character, animation, times, periods > 0 ? periods / duration : request.fps);
+    motion.keys = std::make_shared<const NodeAnimationPlayer>(motion.character, animation, request.scale);
   } catch (const std::invalid_argument& error) {
     throw io::InputError(path, error.what());
   }
@@ -107,9 +129,9 @@ ActorMotion play_character_animation(const AnimationRequest& request, LoadCache*
   motion.root_joint = moving_root(motion.clip);
   motion.rest_facing = gltf_front();
   char line[512];
-  std::snprintf(line, sizeof line, "animation '%s' (%.6g s, %zu channels) played %s: %d frames at %.6g fps",
-                request.animation.c_str(), animation.duration(), animation.channels.size(),
-                length_text(request.length).c_str(), motion.clip.frame_count(), motion.clip.fps);
+  std::snprintf(line, sizeof line, "animation '%s' (%.6g s, %zu channels) played %s: %.6g s from a pass of %d frames at %.6g fps",
+                request.animation.c_str(), duration, animation.channels.size(), length_text(request.length).c_str(),
+                motion.played_seconds, motion.clip.frame_count(), motion.clip.fps);
   motion.description = line;
   motion.seconds_to_build = seconds_since(start);
   return motion;
@@ -136,32 +158,27 @@ ActorMotion play_anime(const AnimeRequest& request) {
     source.positions[i + 2] = p.z();
   }
 
-  // The played frames: once, looped or for a length, at the request's rate.
-  NodeAnimation timing;  // only its clock: looped_animation_times needs a start and an end
-  timing.name = std::filesystem::path(path).filename().string();
-  timing.end = source.duration();
-  std::vector<double> times;
+  // Kept at the file's rate: the shot interpolates it at its own times (timed_clip.h).
+  ActorMotion motion;
   try {
-    times = looped_animation_times(timing, request.fps, request.length.loops, request.length.seconds);
+    set_playback(motion, std::filesystem::path(path).filename().string() + ": ", source.duration(), request.fps, request.length);
   } catch (const std::invalid_argument& error) {
     throw io::InputError(path, error.what());
   }
-  MeshAnimation played = source.sampled_at(times, request.fps);
 
   // The joint follows the horizontal centroid; vertices are kept relative to it.
-  const int frames = played.frame_count();
-  const std::size_t vertices = played.vertex_count;
-  ActorMotion motion;
+  const int frames = source.frame_count();
+  const std::size_t vertices = source.vertex_count;
   motion.kind = ActorSourceKind::anime;
   motion.source_path = path;
   Clip& clip = motion.clip;
-  clip.fps = request.fps;
+  clip.fps = request.source_fps;
   clip.rotations.assign(frames, Eigen::Quaterniond::Identity());
   clip.translated_joints = {0};
   clip.translations.resize(frames);
   for (int f = 0; f < frames; ++f) {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    float* p = played.positions.data() + std::size_t(f) * vertices * 3;
+    float* p = source.positions.data() + std::size_t(f) * vertices * 3;
     for (std::size_t v = 0; v < vertices; ++v) sum += Eigen::Vector3d(p[3 * v], p[3 * v + 1], p[3 * v + 2]);
     const Eigen::Vector3d centroid(sum.x() / double(vertices), sum.y() / double(vertices), 0.0);
     clip.translations[f] = centroid;
@@ -178,7 +195,7 @@ ActorMotion play_anime(const AnimeRequest& request) {
   character.source_scale_of_joint = {1};
   CharacterMesh mesh;
   mesh.name = character.name;
-  const std::span<const float> rest = played.frame(0);
+  const std::span<const float> rest = source.frame(0);
   for (std::size_t v = 0; v < vertices; ++v) mesh.positions.emplace_back(rest[3 * v], rest[3 * v + 1], rest[3 * v + 2]);
   mesh.triangles = std::move(file.triangles);
   mesh.skin_joints = {0};
@@ -186,16 +203,26 @@ ActorMotion play_anime(const AnimeRequest& request) {
   mesh.influence_slots.assign(vertices, {0, 0, 0, 0});
   mesh.influence_weights.assign(vertices, {1, 0, 0, 0});
   character.meshes.push_back(std::move(mesh));
-  motion.vertex_animation = std::move(played);
+  motion.vertex_animation = std::make_shared<const MeshAnimation>(std::move(source));
   motion.root_joint = 0;
   motion.rest_facing = request.up_z ? Eigen::Vector3d::UnitX() : gltf_front();
   char line[512];
-  std::snprintf(line, sizeof line, "%d frames of %zu vertices, %zu triangles at %.6g fps, played %s: %d frames at %.6g fps",
-                source.frame_count(), vertices, character.meshes[0].triangles.size() / 3, request.source_fps,
-                length_text(request.length).c_str(), frames, request.fps);
+  std::snprintf(line, sizeof line, "%d frames of %zu vertices, %zu triangles at %.6g fps, played %s: %.6g s", frames, vertices,
+                character.meshes[0].triangles.size() / 3, request.source_fps, length_text(request.length).c_str(),
+                motion.played_seconds);
   motion.description = line;
   motion.seconds_to_build = seconds_since(start);
   return motion;
+}
+
+TimedClip played_clip(const std::shared_ptr<const ActorMotion>& motion, double fps) {
+  ClipTiming timing;
+  timing.fps = fps;
+  // The 1e-9 relative slack keeps the last frame when played_seconds * fps is whole up to rounding.
+  timing.frames = static_cast<int>(std::floor(motion->played_seconds * fps * (1 + 1e-9) + 1e-9)) + 1;
+  timing.trim_end = motion->played_seconds;
+  timing.loops = motion->loops;
+  return TimedClip(std::shared_ptr<const Clip>(motion, &motion->clip), motion->vertex_animation, motion->keys, timing);
 }
 
 ActorMotion retargeted_motion(std::shared_ptr<const RetargetedActor> retargeted) {
@@ -203,6 +230,7 @@ ActorMotion retargeted_motion(std::shared_ptr<const RetargetedActor> retargeted)
   motion.kind = ActorSourceKind::motion;
   motion.character = retargeted->character;
   motion.clip = retargeted->clip();
+  motion.played_seconds = motion.clip.duration();
   motion.source_path = retargeted->request.character_path;
   const retarget::BoneMap& map = retargeted->target_map;
   const Skeleton& skeleton = motion.character.skeleton;
@@ -225,6 +253,8 @@ nlohmann::ordered_json actor_motion_report_json(const ActorMotion& motion) {
   json["played"] = motion.description;
   json["frames"] = motion.clip.frame_count();
   json["fps"] = motion.clip.fps;
+  json["played_s"] = motion.played_seconds;
+  json["loops"] = motion.loops;
   json["root_joint"] = motion.character.skeleton.name(motion.root_joint);
   json["warnings"] = motion.warnings;
   json["timings_s"] = {{"build", motion.seconds_to_build}};

@@ -13,8 +13,8 @@
 //              sits at the mesh's horizontal centroid (x, y of the mean vertex, z = 0), unrotated,
 //              and the vertices are stored relative to it (ActorMotion::vertex_animation), so that
 //              placement turns and moves the whole mesh with the joint, and footprints and framing
-//              follow the mesh. The file's frames (at source_fps) are resampled linearly to the
-//              request's rate.
+//              follow the mesh. The file's frames (at source_fps) are kept as they are; the shot
+//              interpolates them linearly at its own times.
 //
 // Conventions of the two new sources: the file's axes are Y up (glTF; DeformingThings4D, as
 // exported) and are turned to the toolkit's Z up by (x, y, z) -> (x, -z, y); an anime file
@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "scene_layouts/actor.h"
+#include "scene_layouts/timed_clip.h"
 #include "skeleton/character.h"
 #include "skeleton/clip.h"
 #include "skeleton/mesh_animation.h"
@@ -53,7 +54,7 @@ struct PlaybackLength {
 struct AnimationRequest {
   std::string character_path;
   std::string animation;  // its name in the file
-  double fps = 30;        // the clip's rate: the keyframes are evaluated at k / fps
+  double fps = 30;        // the clip's rate (rounded up to a whole number of frames a pass)
   PlaybackLength length;
   double scale = 1;
 };
@@ -61,7 +62,7 @@ struct AnimationRequest {
 struct AnimeRequest {
   std::string path;
   double source_fps = 30;  // the file's frame rate (the format does not store one)
-  double fps = 30;
+  double fps = 30;         // the shot's: the played length is capped in its frames
   bool up_z = false;       // the file is already Z up
   PlaybackLength length;
   double scale = 1;
@@ -75,9 +76,19 @@ using ActorSource = std::variant<RetargetRequest, AnimationRequest, AnimeRequest
 struct ActorMotion {
   ActorSourceKind kind = ActorSourceKind::motion;
   Character character;
-  Clip clip;  // on character.skeleton, at the request's rate
+  // On character.skeleton, one pass through the source: a motion retargeted at the request's
+  // rate; an animation from its first key to its last, at the request's rate rounded up so that
+  // a frame falls on the last key; an anime file's frames at its rate.
+  Clip clip;
+  // How it plays (timed_clip.h): for `played_seconds` in all, wrapping with period
+  // clip.duration() when `loops` (an animation or anime looped or played for seconds), else once.
+  double played_seconds = 0;
+  bool loops = false;
   // Anime: character.meshes[0]'s vertices every frame of `clip`, in joint 0's frame.
-  std::optional<MeshAnimation> vertex_animation;
+  std::shared_ptr<const MeshAnimation> vertex_animation;
+  // Animation: its keys on the character, which the shot evaluates at each played time (the pass
+  // in `clip` shows what it plays: its root, footprint and facing).
+  std::shared_ptr<const NodeAnimationPlayer> keys;
   int root_joint = 0;
   Eigen::Vector3d rest_facing = -Eigen::Vector3d::UnitY();  // horizontal, unit
   int head_joint = -1;          // -1: none known
@@ -93,6 +104,9 @@ struct ActorMotion {
 // animation the file does not have lists the names it has) or std::invalid_argument.
 ActorMotion play_character_animation(const AnimationRequest& request, LoadCache* cache = nullptr);
 ActorMotion play_anime(const AnimeRequest& request);
+// The motion as it plays from its start, for its played length, at `fps` (the frames at k / fps
+// up to played_seconds; timed_clip.h), unplaced. It shares the motion.
+TimedClip played_clip(const std::shared_ptr<const ActorMotion>& motion, double fps);
 // Wraps a retargeting (its clip, character and bone map's pelvis, hips, head and wrists).
 ActorMotion retargeted_motion(std::shared_ptr<const RetargetedActor> retargeted);
 

@@ -279,11 +279,10 @@ HeadFrame head_frame_from_rest(const Skeleton& skeleton, int head, int left_hip,
   return frame;
 }
 
-CameraPath ego_head_camera_path(const Clip& clip, int head, const HeadFrame& head_frame,
+CameraPath ego_head_camera_path(const TimedClip& clip, int head, const HeadFrame& head_frame,
                                 const PinholeIntrinsics& intrinsics, const EgoHeadOptions& options) {
-  clip.validate();
   const int frames = clip.frame_count();
-  check_frames_and_fps("ego-head camera", frames, clip.fps);
+  check_frames_and_fps("ego-head camera", frames, clip.fps());
   check_intrinsics("ego-head camera", intrinsics);
   require(head >= 0 && head < clip.joint_count(), "ego-head camera: head joint " + std::to_string(head) +
                                                       " is outside the skeleton (" +
@@ -303,25 +302,25 @@ CameraPath ego_head_camera_path(const Clip& clip, int head, const HeadFrame& hea
 
   // The eye point in head-local axes: forward_offset f_h + up_offset u_h.
   const Eigen::Vector3d eye_local = options.forward_offset * f_h + options.up_offset * u_h;
-  CameraPath path = constant_intrinsics_path("ego-head", frames, clip.fps, intrinsics);
-  std::vector<RigidTransform<double>> world(clip.joint_count());
+  CameraPath path = constant_intrinsics_path("ego-head", frames, clip.fps(), intrinsics);
+  KinematicData<double> pose(clip.skeleton().kinematics());
   for (int f = 0; f < frames; ++f) {
-    clip.world_pose(f, world);
-    const RigidTransform<double>& h = world[head];
+    clip.world_pose(f, pose);
+    const RigidTransform<double>& h = pose.world[head];
     path.poses.push_back(CameraPose::from_forward_up(h * eye_local, h.rotation * f_h, h.rotation * u_h));
   }
-  if (options.smoothing_sigma_s > 0) smooth_poses(path.poses, options.smoothing_sigma_s * clip.fps);
+  if (options.smoothing_sigma_s > 0) smooth_poses(path.poses, options.smoothing_sigma_s * clip.fps());
   return path;
 }
 
-CameraPath ego_head_camera_path(const Clip& clip, const retarget::BoneMap& map, const PinholeIntrinsics& intrinsics,
+CameraPath ego_head_camera_path(const TimedClip& clip, const retarget::BoneMap& map, const PinholeIntrinsics& intrinsics,
                                 const EgoHeadOptions& options) {
   const int head = map.joints[retarget::canonical::head];
   const int left_hip = map.joints[retarget::canonical::left_hip];
   const int right_hip = map.joints[retarget::canonical::right_hip];
   require(head >= 0, "ego-head camera: the bone map has no head");
   require(left_hip >= 0 && right_hip >= 0, "ego-head camera: the bone map has no left_hip or no right_hip");
-  return ego_head_camera_path(clip, head, head_frame_from_rest(clip.skeleton, head, left_hip, right_hip), intrinsics,
+  return ego_head_camera_path(clip, head, head_frame_from_rest(clip.skeleton(), head, left_hip, right_hip), intrinsics,
                               options);
 }
 

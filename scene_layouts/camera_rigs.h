@@ -61,6 +61,7 @@
 
 #include "retarget/bone_map.h"
 #include "skeleton/camera.h"
+#include "scene_layouts/timed_clip.h"
 #include "skeleton/clip.h"
 
 namespace odyssey::scene {
@@ -137,11 +138,11 @@ Eigen::Vector3d rest_facing(const Skeleton& skeleton, int left_hip, int right_hi
 // From the skeleton's rest pose, as above.
 HeadFrame head_frame_from_rest(const Skeleton& skeleton, int head, int left_hip, int right_hip);
 
-CameraPath ego_head_camera_path(const Clip& clip, int head, const HeadFrame& head_frame,
+CameraPath ego_head_camera_path(const TimedClip& clip, int head, const HeadFrame& head_frame,
                                 const PinholeIntrinsics& intrinsics, const EgoHeadOptions& options);
 // The same on a retargeted clip, its head and hips taken from the character's bone map. Throws
 // std::invalid_argument when the map has no head or hips.
-CameraPath ego_head_camera_path(const Clip& clip, const retarget::BoneMap& map, const PinholeIntrinsics& intrinsics,
+CameraPath ego_head_camera_path(const TimedClip& clip, const retarget::BoneMap& map, const PinholeIntrinsics& intrinsics,
                                 const EgoHeadOptions& options);
 
 }  // namespace odyssey::scene

@@ -15,15 +15,17 @@ constexpr std::size_t kPointBlock = 2048;
 
 void require_clip_on(const StreamActor& actor) {
   const Skeleton& ours = actor.character->skeleton;
-  const Clip& clip = *actor.clip;
   const std::string who = "actor '" + actor.name + "': ";
+  if (actor.clip == nullptr || actor.clip->joint_count() == 0) throw std::invalid_argument(who + "no clip");
+  const Skeleton& theirs = actor.clip->skeleton();
+  const TimedClip& clip = *actor.clip;
   if (clip.joint_count() != ours.joint_count()) {
     throw std::invalid_argument(who + "the clip has " + std::to_string(clip.joint_count()) + " joints, the character " +
                                 std::to_string(ours.joint_count()));
   }
   for (int j = 0; j < ours.joint_count(); ++j) {
-    if (clip.skeleton.name(j) != ours.name(j) || clip.skeleton.parent(j) != ours.parent(j)) {
-      throw std::invalid_argument(who + "the clip's joint " + std::to_string(j) + " (" + clip.skeleton.name(j) +
+    if (theirs.name(j) != ours.name(j) || theirs.parent(j) != ours.parent(j)) {
+      throw std::invalid_argument(who + "the clip's joint " + std::to_string(j) + " (" + theirs.name(j) +
                                   ") is not the character's (" + ours.name(j) + ")");
     }
   }
@@ -32,13 +34,8 @@ void require_clip_on(const StreamActor& actor) {
 
 void require_vertex_animation(const StreamActor& actor) {
   const std::string who = "actor '" + actor.name + "': ";
-  const MeshAnimation& animation = *actor.vertex_animation;
-  if (actor.character->meshes.size() != 1 || animation.vertex_count != actor.character->meshes[0].positions.size()) {
+  if (actor.character->meshes.size() != 1 || actor.clip->vertex_count() != actor.character->meshes[0].positions.size()) {
     throw std::invalid_argument(who + "a vertex animation needs one mesh of as many vertices as it animates");
-  }
-  if (animation.frame_count() != actor.clip->frame_count()) {
-    throw std::invalid_argument(who + "the vertex animation has " + std::to_string(animation.frame_count()) +
-                                " frames, the clip " + std::to_string(actor.clip->frame_count()));
   }
 }
 
@@ -128,13 +125,15 @@ io::TrajectoryFileHeader trajectory_file_header(std::span<const StreamActor> act
 struct FrameLoop::ActorState {
   std::unique_ptr<skinning::SurfacePointSkinner> points;
   std::unique_ptr<skinning::LinearBlendSkinner> mesh;
-  const MeshAnimation* animated = nullptr;  // a vertex-animated actor: no skinners
-  bool has_mesh = false;                    // mesh_positions are filled (skinned or animated)
+  bool animated = false;  // a vertex-animated actor: no skinners
+  bool has_mesh = false;  // mesh_positions are filled (skinned or animated)
   std::vector<std::uint32_t> triangles;  // numbered within the actor's vertices
   std::vector<std::uint32_t> triangles_without_head;  // for an ego camera riding on it
   std::size_t vertices = 0;
   std::size_t first_point = 0;
   double margin = 0;                     // culling box growth, 0.25 rest height
+  KinematicData<double> pose;                  // one frame's
+  std::vector<float> local_vertices;           // a vertex-animated actor's, one frame's, V x 3
   std::vector<RigidTransform<double>> world;   // C x J
   std::vector<float> point_positions;          // C x n x 3
   std::vector<float> mesh_positions;           // C x V x 3 (frames not needed are left stale)
@@ -199,9 +198,10 @@ FrameLoop::FrameLoop(std::span<const StreamActor> actors, const StreamProps* pro
     ActorState& s = actors_state_[a];
     s.first_point = n_;
     s.vertices = vertex_count(*actor.character);
-    if (actor.vertex_animation) {
+    s.pose = KinematicData<double>(actor.clip->skeleton().kinematics());
+    if (actor.clip->vertex_animated()) {
       require_vertex_animation(actor);
-      s.animated = actor.vertex_animation;
+      s.animated = true;
       if (tracking_) n_ += actor.points.size();
     } else if (tracking_ && !actor.points.empty()) {
       s.points = std::make_unique<skinning::SurfacePointSkinner>(*actor.character, actor.points, options.threads);
@@ -319,13 +319,16 @@ void FrameLoop::pose(int first, int count) {
     if (s.animated && s.has_mesh) s.mesh_positions.resize(count * s.vertices * 3);
     for (int f = 0; f < count; ++f) {
       const std::span<RigidTransform<double>> world = std::span(s.world).subspan(f * joints, joints);
-      actors_[a].clip->world_pose(first + f, world);
+      actors_[a].clip->world_pose(first + f, s.pose);
+      std::copy(s.pose.world.begin(), s.pose.world.end(), world.begin());
       for (const RigidTransform<double>& joint : world) s.boxes[f].extend(joint.translation);
       if (s.animated && s.has_mesh) {
         // World vertex = W(joint 0) local vertex; the box is the vertices'.
         const Eigen::Matrix3f rotation = world[0].rotation.cast<float>();
         const Eigen::Vector3f translation = world[0].translation.cast<float>();
-        const std::span<const float> local = s.animated->frame(first + f);
+        s.local_vertices.resize(s.vertices * 3);
+        actors_[a].clip->local_vertices(first + f, s.local_vertices);
+        const std::span<const float> local = s.local_vertices;
         float* out = s.mesh_positions.data() + f * s.vertices * 3;
         for (std::size_t v = 0; v < s.vertices; ++v) {
           const Eigen::Vector3f p = rotation * Eigen::Vector3f(local[3 * v], local[3 * v + 1], local[3 * v + 2]) + translation;

@@ -53,11 +53,10 @@
 #include <vector>
 
 #include "mocap_io/trajectory_file.h"
+#include "scene_layouts/timed_clip.h"
 #include "scene_layouts/visibility.h"
 #include "skeleton/camera.h"
 #include "skeleton/character.h"
-#include "skeleton/clip.h"
-#include "skeleton/mesh_animation.h"
 #include "skinning/lbs.h"
 #include "skinning/sampling.h"
 #include "skinning/worker_pool.h"
@@ -65,14 +64,13 @@
 namespace odyssey::scene {
 
 // An actor as the loop sees it: a character, the clip that drives it over the shot (one frame per
-// output frame, on the character's skeleton) and the points tracked on it.
+// output frame, on the character's skeleton) and the points tracked on it. A vertex-animated clip
+// (actor_source.h, anime) gives its one mesh's vertices in joint 0's frame; they replace skinning
+// (world vertex = W(joint 0) local vertex).
 struct StreamActor {
   std::string name;
   const Character* character = nullptr;
-  const Clip* clip = nullptr;
-  // A vertex-animated actor (actor_source.h, anime): its one mesh's vertices every frame, in clip
-  // joint 0's frame; they replace skinning (world vertex = W(joint 0) local vertex).
-  const MeshAnimation* vertex_animation = nullptr;
+  const TimedClip* clip = nullptr;
   std::span<const skinning::SurfacePoint> points;
   bool mesh_every_frame = false;  // a sink needs its whole mesh each frame (a point cache)
   int head_joint = -1;            // an ego camera on this actor does not see its own head's subtree

@@ -15,20 +15,21 @@ Eigen::Matrix3d yaw_rotation(double degrees) {
   return Eigen::AngleAxisd(degrees * std::numbers::pi / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
 }
 
-std::vector<Eigen::Vector2d> root_track(const Clip& clip, int root) {
-  std::vector<RigidTransform<double>> world(clip.joint_count());
+std::vector<Eigen::Vector2d> root_track(const TimedClip& clip, int root) {
+  KinematicData<double> data(clip.skeleton().kinematics());
   std::vector<Eigen::Vector2d> track(clip.frame_count());
   for (int f = 0; f < clip.frame_count(); ++f) {
-    clip.world_pose(f, world);
-    track[f] = world[root].translation.head<2>();
+    clip.world_pose(f, data);
+    track[f] = data.world[root].translation.head<2>();
   }
   return track;
 }
 
 namespace {
 
-double actor_clip_end(const SceneActor& actor, double start, const Clip& clip) {
-  const double trim_end = std::min(actor.trim_end_s.value_or(clip.duration()), clip.duration());
+double actor_clip_end(const SceneActor& actor, double start, const ActorMotion& motion) {
+  const double played = motion.played_seconds;
+  const double trim_end = std::min(actor.trim_end_s.value_or(played), played);
   return start + std::max(trim_end - actor.trim_start_s, 0.0) / actor.speed;
 }
 
@@ -39,56 +40,25 @@ double actor_clip_end(const SceneActor& actor, double start, const Clip& clip) {
   throw std::invalid_argument("actor '" + scene.actors[a].name + "': " + problem);
 }
 
-// The clip times of the scene's frames: frame f at c(f / fps) (scene.h).
-std::vector<double> timeline_times(const Scene& scene, std::size_t a, double start, const Clip& clip, int frames) {
+// Actor a's time map (scene.h) over the shot's frames, checked against its played length.
+ClipTiming actor_timing(const Scene& scene, std::size_t a, double start, const ActorMotion& motion, int frames) {
   const SceneActor& actor = scene.actors[a];
-  const double fps = scene.fps;
-  const double trim_end = std::min(actor.trim_end_s.value_or(clip.duration()), clip.duration());
+  const double played = motion.played_seconds;
+  const double trim_end = std::min(actor.trim_end_s.value_or(played), played);
   if (actor.trim_start_s > trim_end) {
     char problem[160];
-    std::snprintf(problem, sizeof problem, "the trim starts at %.6g s, after the clip's end at %.6g s", actor.trim_start_s,
-                  clip.duration());
+    std::snprintf(problem, sizeof problem, "the trim starts at %.6g s, after the clip's end at %.6g s", actor.trim_start_s, played);
     actor_error(scene, a, ".trim", problem);
   }
-  std::vector<double> times(frames);
-  for (int f = 0; f < frames; ++f) {
-    times[f] = std::clamp(actor.trim_start_s + actor.speed * (f / fps - start), actor.trim_start_s, trim_end);
-  }
-  return times;
-}
-
-// Turns the whole clip by `rotation` about the origin, then moves it by `shift`: every root joint's
-// local transform (its world transform) T becomes (R, d) T.
-void move_clip(Clip& clip, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& shift) {
-  const int joints = clip.joint_count();
-  const int frames = clip.frame_count();
-  std::vector<int> translated = clip.translated_joints;
-  for (int j = 0; j < joints; ++j) {
-    if (clip.skeleton.parent(j) == -1 && std::find(translated.begin(), translated.end(), j) == translated.end()) {
-      translated.push_back(j);
-    }
-  }
-  std::vector<Eigen::Vector3d> translations(std::size_t(frames) * translated.size());
-  const std::size_t old_k = clip.translated_joints.size();
-  for (int f = 0; f < frames; ++f) {
-    for (std::size_t t = 0; t < translated.size(); ++t) {
-      translations[f * translated.size() + t] =
-          t < old_k ? clip.translations[f * old_k + t] : clip.skeleton.rest_offsets()[translated[t]];
-    }
-  }
-  clip.translated_joints = translated;
-  clip.translations = std::move(translations);
-  const Eigen::Quaterniond q(rotation);
-  for (int f = 0; f < frames; ++f) {
-    for (std::size_t t = 0; t < translated.size(); ++t) {
-      const int j = translated[t];
-      if (clip.skeleton.parent(j) != -1) continue;
-      Eigen::Vector3d& translation = clip.translations[f * translated.size() + t];
-      translation = rotation * translation + shift;
-      Eigen::Quaterniond& r = clip.rotations[std::size_t(f) * joints + j];
-      r = (q * r).normalized();
-    }
-  }
+  ClipTiming timing;
+  timing.fps = scene.fps;
+  timing.frames = frames;
+  timing.start = start;
+  timing.speed = actor.speed;
+  timing.trim_start = actor.trim_start_s;
+  timing.trim_end = trim_end;
+  timing.loops = motion.loops;
+  return timing;
 }
 
 // The direction the actor faces in a pose (degrees from +x, counter-clockwise seen from above):
@@ -131,9 +101,9 @@ int first_overlap(const Footprint& candidate, const std::vector<Footprint>& plac
 Footprint place_actor(const Scene& scene, std::size_t a, int frames, const std::vector<Footprint>& placed, PlacedActor& actor) {
   const SceneActor& spec = scene.actors[a];
   const ActorMotion& motion = *actor.motion;
-  const std::vector<double> times = timeline_times(scene, a, actor.start_s, motion.clip, frames);
-  const Clip timed = motion.clip.sampled_at(times, scene.fps);
-  if (motion.vertex_animation) actor.vertex_animation = motion.vertex_animation->sampled_at(times, scene.fps);
+  // The motion's clip and vertices stay with it (shared); the timed clip only points at them.
+  const TimedClip timed(std::shared_ptr<const Clip>(actor.motion, &motion.clip), motion.vertex_animation, motion.keys,
+                        actor_timing(scene, a, actor.start_s, motion, frames));
   const int root = motion.root_joint;
   std::vector<RigidTransform<double>> world(timed.joint_count());
   timed.world_pose(0, world);
@@ -141,16 +111,20 @@ Footprint place_actor(const Scene& scene, std::size_t a, int frames, const std::
   const double start_heading = heading_deg(motion, world);
   Footprint footprint;
   footprint.radius = 0.15 * motion.character.rest_bounds().sizes().z();
+  // The root's track as recorded; a placement moves it rigidly with the clip.
+  const std::vector<Eigen::Vector2d> recorded = root_track(timed, root);
   // Turning by yaw - start_heading about the start root makes the actor face `yaw` there.
   const auto place = [&](double x, double y, double yaw) {
     actor.clip = timed;
     const Eigen::Matrix3d rotation = yaw_rotation(yaw - start_heading);
-    move_clip(actor.clip, rotation, Eigen::Vector3d(x, y, 0) - rotation * start_root);
+    const Eigen::Vector3d shift = Eigen::Vector3d(x, y, 0) - rotation * start_root;
+    actor.clip.place(rotation, shift);
     actor.x = x;
     actor.y = y;
     actor.yaw_deg = yaw;
     actor.turn_deg = yaw - start_heading;
-    footprint.track = root_track(actor.clip, root);
+    footprint.track.resize(recorded.size());
+    for (std::size_t f = 0; f < recorded.size(); ++f) footprint.track[f] = rotation.topLeftCorner<2, 2>() * recorded[f] + shift.head<2>();
   };
   const Placement& placement = spec.placement;
   int frame = -1;
@@ -176,7 +150,7 @@ Footprint place_actor(const Scene& scene, std::size_t a, int frames, const std::
     actor.x = start_root.x();
     actor.y = start_root.y();
     actor.yaw_deg = start_heading;
-    footprint.track = root_track(actor.clip, root);
+    footprint.track = recorded;
   } else {
     place(placement.x, placement.y, placement.yaw_deg);
   }
@@ -203,11 +177,11 @@ int time_actors(const Scene& scene, std::vector<PlacedActor>& actors) {
       SeededUniform draw(scene.seed, 3000 + a);
       actors[a].start_s = draw.between(spec.start_range->first, spec.start_range->second);
     }
-    end = std::max(end, actor_clip_end(spec, actors[a].start_s, actors[a].motion->clip));
+    end = std::max(end, actor_clip_end(spec, actors[a].start_s, *actors[a].motion));
   }
   const double seconds = scene.seconds.value_or(end);
-  // Every actor's clip is held on the timeline (J quaternions and a root a frame): a shot of days
-  // is a typo, refused before anything is allocated.
+  // Cameras and moving props are held a pose a frame: a shot of days is a typo, refused before
+  // anything is allocated.
   constexpr double kMaxFrames = 10'000'000;
   if (seconds * scene.fps >= kMaxFrames) {
     throw std::invalid_argument("scene: " + std::to_string(seconds) + " s at " + std::to_string(scene.fps) +

@@ -14,7 +14,7 @@ namespace odyssey::scene {
 Eigen::Matrix3d yaw_rotation(double degrees);
 
 // The root joint's horizontal position in every frame of the clip.
-std::vector<Eigen::Vector2d> root_track(const Clip& clip, int root);
+std::vector<Eigen::Vector2d> root_track(const TimedClip& clip, int root);
 
 // Each actor's start on the timeline (drawn from its range where it has one, seed stream
 // 3000 + actor), and the shot's frame count: the scene's seconds, or until the last clip ends.

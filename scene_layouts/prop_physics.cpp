@@ -107,15 +107,15 @@ int add_actor(const PlacedActor& actor, std::map<const ActorMotion*, std::vector
     for (std::size_t j = 0; j < rest.size(); ++j) bones[j] = {rest[j].translation, Eigen::Quaterniond(rest[j].rotation).normalized()};
     slot->second = physics::fit_bone_colliders(vertices, dominant, bones);
   }
-  const int joints = actor.clip.joint_count();
-  std::vector<RigidTransform<double>> pose(joints);
-  std::vector<physics::Pose> track;
-  track.reserve(static_cast<std::size_t>(actor.clip.frame_count()) * joints);
-  for (int f = 0; f < actor.clip.frame_count(); ++f) {
-    actor.clip.world_pose(f, pose);
-    for (const RigidTransform<double>& joint : pose) track.push_back({joint.translation, Eigen::Quaterniond(joint.rotation).normalized()});
-  }
-  return physics::add_actor_colliders(world, slot->second, track);
+  // The bones are posed from the actor's clip as the simulation reaches each frame: no track.
+  const TimedClip* clip = &actor.clip;
+  return physics::add_actor_colliders(world, slot->second, [clip](int frame, std::span<physics::Pose> bones) {
+    KinematicData<double> pose(clip->skeleton().kinematics());
+    clip->world_pose(frame, pose);
+    for (std::size_t j = 0; j < bones.size(); ++j) {
+      bones[j] = {pose.world[j].translation, Eigen::Quaterniond(pose.world[j].rotation).normalized()};
+    }
+  });
 }
 
 }  // namespace
@@ -351,7 +351,7 @@ void simulate_props(const Scene& scene, const std::vector<Prop>& props, const st
   }
   std::map<const ActorMotion*, std::vector<std::vector<Eigen::Vector3d>>> hulls_of;  // actors of one source share theirs
   for (std::size_t a = 0; a < shot.actors.size(); ++a) {
-    if (shot.actors[a].vertex_animation) {
+    if (shot.actors[a].clip.vertex_animated()) {
       shot.skipped.push_back("actor '" + shot.actors[a].name + "': a vertex-animated mesh has no bones to collide with: the props pass through it");
       continue;
     }

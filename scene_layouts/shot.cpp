@@ -237,7 +237,6 @@ std::vector<StreamActor> stream_actors(const Shot& shot, const std::vector<bool>
     actor.name = placed.name;
     actor.character = &placed.motion->character;
     actor.clip = &placed.clip;
-    if (placed.vertex_animation) actor.vertex_animation = &*placed.vertex_animation;
     actor.points = placed.tracked_points;
     actor.mesh_every_frame = a < mesh_every_frame.size() && mesh_every_frame[a];
     actor.head_joint = placed.motion->head_joint;

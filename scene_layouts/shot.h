@@ -21,6 +21,7 @@
 #include "scene_layouts/actor_source.h"
 #include "scene_layouts/frame_loop.h"
 #include "scene_layouts/scene.h"
+#include "scene_layouts/timed_clip.h"
 
 namespace odyssey::scene {
 
@@ -28,9 +29,7 @@ struct PlacedActor {
   std::string name;
   std::shared_ptr<const ActorMotion> motion;          // shared by actors of identical requests
   std::shared_ptr<const RetargetedActor> retargeted;  // a motion's retargeting (motion->retargeted), else null
-  Clip clip;                   // on the scene's timeline and placement
-  // Anime: the mesh's vertices every scene frame, in clip joint 0's frame (actor_source.h).
-  std::optional<MeshAnimation> vertex_animation;
+  TimedClip clip;  // motion->clip on the scene's timeline and placement (an anime's vertices too)
   double x = 0, y = 0, yaw_deg = 0;  // where the root starts and the direction the actor faces there
   double turn_deg = 0;               // the turn the placement gave the recorded motion
   double start_s = 0;                // the start used (drawn when the scene gave a range)

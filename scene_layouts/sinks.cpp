@@ -49,13 +49,23 @@ void CharacterGlbSink::finish(const SceneResult& result) {
     options.camera = &result.cameras[0].path;
     options.camera_name = result.cameras[0].name;
   }
-  io::write_animated_glb(actor.request.character_path, actor.character, result.actors[0].clip, staged_, options);
+  io::write_animated_glb(actor.request.character_path, actor.character, result.actors[0].clip.stored_clip(), staged_, options);
 }
 
 void SceneGlbSink::finish(const SceneResult& result) {
-  std::vector<io::SceneGlbActor> actors;
+  // The file holds every frame of every actor, so their clips are stored whole here, for it.
+  std::vector<Clip> clips;
+  std::vector<MeshAnimation> vertices;
+  clips.reserve(result.actors.size());
+  vertices.reserve(result.actors.size());
   for (const PlacedActor& actor : result.actors) {
-    actors.push_back({actor.name, &actor.motion->character, &actor.clip, actor.vertex_animation ? &*actor.vertex_animation : nullptr});
+    clips.push_back(actor.clip.stored_clip());
+    vertices.push_back(actor.clip.vertex_animated() ? actor.clip.stored_vertices() : MeshAnimation{});
+  }
+  std::vector<io::SceneGlbActor> actors;
+  for (std::size_t a = 0; a < result.actors.size(); ++a) {
+    const PlacedActor& actor = result.actors[a];
+    actors.push_back({actor.name, &actor.motion->character, &clips[a], actor.clip.vertex_animated() ? &vertices[a] : nullptr});
   }
   std::vector<io::SceneGlbCamera> cameras;
   for (const ShotCamera& camera : result.cameras) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -96,10 +97,69 @@ Clip Clip::resampled(double target_fps) const {
   }
   if (frame_count() == 0) return sampled_at({}, target_fps);
   // A 1e-9 relative slack keeps the final frame when duration * fps is an integer up to rounding.
-  const int target_frames = static_cast<int>(std::floor(duration() * target_fps * (1 + 1e-9) + 1e-9)) + 1;
+  const double frames = std::floor(duration() * target_fps * (1 + 1e-9) + 1e-9) + 1;
+  // Frame indices are ints: a count past that is refused before anything is allocated (callers cap
+  // far lower, io::require_frames_within_cap).
+  if (!(frames < double(std::numeric_limits<int>::max()) / std::max(joint_count(), 1))) {
+    throw std::invalid_argument("resampling " + std::to_string(duration()) + " s at " + std::to_string(target_fps) +
+                                " fps makes more frames than a clip holds");
+  }
+  const int target_frames = static_cast<int>(frames);
   std::vector<double> times(target_frames);
   for (int f = 0; f < target_frames; ++f) times[f] = f / target_fps;
   return sampled_at(times, target_fps);
+}
+
+namespace {
+
+// Where time t falls between the frames: frames f0 and f1 = f0 + 1 (or f0 at the end), weight alpha
+// on f1. The source position is t fps, clamped to [0, frames - 1].
+struct Bracket {
+  int f0 = 0, f1 = 0;
+  double alpha = 0;
+};
+
+Bracket bracket(double time, double fps, int frames) {
+  double position = std::clamp(time * fps, 0.0, double(frames - 1));
+  // A time on a frame up to rounding (k / fps * fps) is that frame, exactly.
+  if (const double nearest = std::round(position); std::abs(position - nearest) < 1e-9) position = nearest;
+  Bracket b;
+  b.f0 = std::min(static_cast<int>(std::floor(position)), frames - 1);
+  b.f1 = std::min(b.f0 + 1, frames - 1);
+  b.alpha = std::clamp(position - b.f0, 0.0, 1.0);
+  return b;
+}
+
+// Joint j's rotation and translated joint t's translation at a bracket: rotations slerped the short
+// way, translations linearly.
+Eigen::Quaterniond rotation_at(const Clip& clip, const Bracket& b, int j) {
+  const Eigen::Quaterniond& q0 = clip.rotation(b.f0, j);
+  return q0.slerp(b.alpha, sign_aligned(clip.rotation(b.f1, j), q0)).normalized();
+}
+
+Eigen::Vector3d translation_at(const Clip& clip, const Bracket& b, std::size_t t) {
+  const std::size_t k = clip.translated_joints.size();
+  return (1 - b.alpha) * clip.translations[b.f0 * k + t] + b.alpha * clip.translations[b.f1 * k + t];
+}
+
+Bracket checked_bracket(const Clip& clip, double time) {
+  if (!std::isfinite(time)) throw std::invalid_argument("sample time " + std::to_string(time) + " is not finite");
+  if (clip.frame_count() == 0) throw std::invalid_argument("the clip has no frames to sample");
+  return bracket(time, clip.fps, clip.frame_count());
+}
+
+}  // namespace
+
+void Clip::local_pose_at(double time, std::span<RigidTransform<double>> local) const {
+  const Bracket b = checked_bracket(*this, time);
+  const auto& offsets = skeleton.rest_offsets();
+  for (int j = 0; j < joint_count(); ++j) local[j] = {rotation_at(*this, b, j).toRotationMatrix(), offsets[j]};
+  for (std::size_t t = 0; t < translated_joints.size(); ++t) local[translated_joints[t]].translation = translation_at(*this, b, t);
+}
+
+void Clip::world_pose_at(double time, KinematicData<double>& data) const {
+  local_pose_at(time, data.local);
+  forward_kinematics(skeleton.kinematics(), data);
 }
 
 Clip Clip::sampled_at(std::span<const double> times, double target_fps) const {
@@ -118,17 +178,9 @@ Clip Clip::sampled_at(std::span<const double> times, double target_fps) const {
   out.translations.resize(times.size() * k);
   for (std::size_t f = 0; f < times.size(); ++f) {
     if (!std::isfinite(times[f])) throw std::invalid_argument("sample time " + std::to_string(f) + " is not finite");
-    const double source_position = std::clamp(times[f] * fps, 0.0, double(frames - 1));
-    const int f0 = std::min(static_cast<int>(std::floor(source_position)), frames - 1);
-    const int f1 = std::min(f0 + 1, frames - 1);
-    const double alpha = std::clamp(source_position - f0, 0.0, 1.0);
-    for (int j = 0; j < joints; ++j) {
-      const Eigen::Quaterniond& q0 = rotation(f0, j);
-      out.rotations[f * joints + j] = q0.slerp(alpha, sign_aligned(rotation(f1, j), q0)).normalized();
-    }
-    for (std::size_t t = 0; t < k; ++t) {
-      out.translations[f * k + t] = (1 - alpha) * translations[f0 * k + t] + alpha * translations[f1 * k + t];
-    }
+    const Bracket b = bracket(times[f], fps, frames);
+    for (int j = 0; j < joints; ++j) out.rotations[f * joints + j] = rotation_at(*this, b, j);
+    for (std::size_t t = 0; t < k; ++t) out.translations[f * k + t] = translation_at(*this, b, t);
   }
   return out;
 }

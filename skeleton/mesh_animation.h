@@ -24,6 +24,8 @@ struct MeshAnimation {
   // between the neighbouring frames. Throws std::invalid_argument for no frames, a non-finite time
   // or a non-positive rate.
   MeshAnimation sampled_at(std::span<const double> times, double target_fps) const;
+  // One time of the same into `out` (vertex_count x 3 floats). Allocates nothing.
+  void sample(double time, std::span<float> out) const;
 };
 
 }  // namespace odyssey

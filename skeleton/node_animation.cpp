@@ -89,42 +89,81 @@ void NodeAnimation::world_matrices(double t, std::vector<Eigen::Matrix4d>& world
   odyssey::world_matrices(parents, order, local, world);
 }
 
-Clip play_node_animation(const Character& character, const NodeAnimation& animation, std::span<const double> times,
-                         double fps) {
-  const Skeleton& skeleton = character.skeleton;
-  const int joints = skeleton.joint_count();
-  const std::string who = "animation '" + animation.name + "': ";
-  if (static_cast<int>(character.source_node_of_joint.size()) != joints) {
+NodeAnimationPlayer::NodeAnimationPlayer(const Character& character, NodeAnimation animation, double scale)
+    : animation_(std::move(animation)), skeleton_(character.skeleton), node_of_joint_(character.source_node_of_joint), scale_(scale) {
+  const int joints = skeleton_.joint_count();
+  const std::string who = "animation '" + animation_.name + "': ";
+  if (static_cast<int>(node_of_joint_.size()) != joints) {
     throw std::invalid_argument(who + "the character does not say which node each joint stands for");
   }
-  for (const int node : character.source_node_of_joint) {
-    if (node < 0 || std::size_t(node) >= animation.parents.size()) {
+  for (const int node : node_of_joint_) {
+    if (node < 0 || std::size_t(node) >= animation_.parents.size()) {
       throw std::invalid_argument(who + "a joint of the character stands for node " + std::to_string(node) +
                                   ", which the animation's hierarchy does not have");
     }
   }
-  if (times.empty()) throw std::invalid_argument(who + "no times to sample");
-  if (!(fps > 0) || !std::isfinite(fps)) throw std::invalid_argument(who + "the frame rate must be positive");
-
+  if (!(scale > 0) || !std::isfinite(scale)) throw std::invalid_argument(who + "the scale must be positive");
   // Joints that bind vertices, and their rest R^T A.
-  std::vector<bool> binds(joints, false);
+  binds_.assign(joints, false);
   for (const CharacterMesh& mesh : character.meshes) {
     for (const int joint : mesh.skin_joints) {
-      if (joint >= 0 && joint < joints) binds[joint] = true;
+      if (joint >= 0 && joint < joints) binds_[joint] = true;
     }
   }
   // The rest pose is the file's node transforms, not the animation's first keys.
-  std::vector<Eigen::Matrix4d> world, rest_world;
+  std::vector<Eigen::Matrix4d> rest_world;
   {
-    NodeAnimation still = animation;
+    NodeAnimation still = animation_;
     still.channels.clear();
     still.world_matrices(0, rest_world);
   }
-  std::vector<Eigen::Matrix3d> rest_binding(joints);
+  rest_binding_.resize(joints);
   for (int j = 0; j < joints; ++j) {
-    const Eigen::Matrix3d a = rest_world[character.source_node_of_joint[j]].topLeftCorner<3, 3>();
-    rest_binding[j] = closest_rotation(a).transpose() * a;
+    const Eigen::Matrix3d a = rest_world[node_of_joint_[j]].topLeftCorner<3, 3>();
+    rest_binding_[j] = closest_rotation(a).transpose() * a;
   }
+}
+
+void NodeAnimationPlayer::local_pose(double t, std::span<RigidTransform<double>> local) const {
+  const int joints = skeleton_.joint_count();
+  const std::string who = "animation '" + animation_.name + "': ";
+  std::vector<Eigen::Matrix4d> world;
+  animation_.world_matrices(t, world);
+  std::vector<Eigen::Matrix3d> rotation(joints);
+  std::vector<Eigen::Vector3d> position(joints);
+  const Eigen::Matrix3d& c = animation_.to_world;
+  for (int j = 0; j < joints; ++j) {
+    const Eigen::Matrix4d& g = world[node_of_joint_[j]];
+    if (!g.allFinite()) throw std::invalid_argument(who + "joint '" + skeleton_.name(j) + "' overflows at " + std::to_string(t) + " s");
+    const Eigen::Matrix3d a = g.topLeftCorner<3, 3>();
+    rotation[j] = closest_rotation(a);
+    position[j] = g.topRightCorner<3, 1>();
+    if (binds_[j]) {
+      const double change = (rotation[j].transpose() * a - rest_binding_[j]).norm() / std::max(rest_binding_[j].norm(), 1e-300);
+      if (change > kMaxSkinScaleChange) {
+        throw std::invalid_argument(who + "at " + std::to_string(t) + " s the animated scale changes joint '" + skeleton_.name(j) +
+                                    "', which carries mesh vertices, by " + std::to_string(change) +
+                                    " of its rest size or shape; a rigid skeleton cannot play that (only scale that "
+                                    "moves joints, not scale of geometry, is played)");
+      }
+    }
+    const int parent = skeleton_.parent(j);
+    if (parent < 0) {
+      local[j] = {c * rotation[j], scale_ * (c * position[j])};
+    } else {
+      local[j] = {rotation[parent].transpose() * rotation[j], scale_ * (rotation[parent].transpose() * (position[j] - position[parent]))};
+    }
+  }
+}
+
+Clip play_node_animation(const Character& character, const NodeAnimation& animation, std::span<const double> times,
+                         double fps) {
+  const NodeAnimationPlayer player(character, animation);
+  const Skeleton& skeleton = character.skeleton;
+  const int joints = skeleton.joint_count();
+  const std::string who = "animation '" + animation.name + "': ";
+  if (times.empty()) throw std::invalid_argument(who + "no times to sample");
+  if (!(fps > 0) || !std::isfinite(fps)) throw std::invalid_argument(who + "the frame rate must be positive");
   const double size = std::max(character.rest_bounds().sizes().norm(), 1e-12);
 
   Clip clip;
@@ -133,36 +172,12 @@ Clip play_node_animation(const Character& character, const NodeAnimation& animat
   const std::size_t frames = times.size();
   clip.rotations.resize(frames * joints);
   std::vector<Eigen::Vector3d> offsets(frames * joints);
-  std::vector<Eigen::Matrix3d> rotation(joints);
-  std::vector<Eigen::Vector3d> position(joints);
-  const Eigen::Matrix3d c = animation.to_world;
+  std::vector<RigidTransform<double>> local(joints);
   for (std::size_t f = 0; f < frames; ++f) {
-    animation.world_matrices(times[f], world);
+    player.local_pose(times[f], local);
     for (int j = 0; j < joints; ++j) {
-      const Eigen::Matrix4d& g = world[character.source_node_of_joint[j]];
-      if (!g.allFinite()) throw std::invalid_argument(who + "joint '" + skeleton.name(j) + "' overflows at " + std::to_string(times[f]) + " s");
-      const Eigen::Matrix3d a = g.topLeftCorner<3, 3>();
-      rotation[j] = closest_rotation(a);
-      position[j] = g.topRightCorner<3, 1>();
-      if (binds[j]) {
-        const double change = (rotation[j].transpose() * a - rest_binding[j]).norm() / std::max(rest_binding[j].norm(), 1e-300);
-        if (change > kMaxSkinScaleChange) {
-          throw std::invalid_argument(who + "at " + std::to_string(times[f]) + " s the animated scale changes joint '" +
-                                      skeleton.name(j) + "', which carries mesh vertices, by " + std::to_string(change) +
-                                      " of its rest size or shape; a rigid skeleton cannot play that (only scale that "
-                                      "moves joints, not scale of geometry, is played)");
-        }
-      }
-      const int parent = skeleton.parent(j);
-      Eigen::Matrix3d local_rotation;
-      if (parent < 0) {
-        local_rotation = c * rotation[j];
-        offsets[f * joints + j] = c * position[j];
-      } else {
-        local_rotation = rotation[parent].transpose() * rotation[j];
-        offsets[f * joints + j] = rotation[parent].transpose() * (position[j] - position[parent]);
-      }
-      Eigen::Quaterniond q = quaternion_from_matrix(local_rotation);
+      offsets[f * joints + j] = local[j].translation;
+      Eigen::Quaterniond q = quaternion_from_matrix(local[j].rotation);
       if (f > 0) q = sign_aligned(q, clip.rotations[(f - 1) * joints + j]);
       clip.rotations[f * joints + j] = q;
     }
@@ -185,36 +200,38 @@ Clip play_node_animation(const Character& character, const NodeAnimation& animat
   return clip;
 }
 
-std::vector<double> looped_animation_times(const NodeAnimation& animation, double fps, std::optional<int> loops,
-                                           std::optional<double> seconds, double max_frames) {
-  const std::string who = "animation '" + animation.name + "': ";
+double played_seconds(const std::string& who, double duration, double fps, std::optional<int> loops,
+                      std::optional<double> seconds, double max_frames) {
   if (!(fps > 0) || !std::isfinite(fps)) throw std::invalid_argument(who + "the frame rate must be positive");
   if (loops && seconds) throw std::invalid_argument(who + "give loops or seconds, not both");
   if (loops && *loops < 1) throw std::invalid_argument(who + "loops must be 1 or more");
   if (seconds && !(*seconds >= 0 && std::isfinite(*seconds))) throw std::invalid_argument(who + "seconds must be 0 or more");
-  const double duration = animation.duration();
   const double total = seconds ? *seconds : duration * loops.value_or(1);
   if (total * fps >= max_frames) {
     throw std::invalid_argument(who + std::to_string(total) + " s at " + std::to_string(fps) + " fps is more than " +
                                 std::to_string(static_cast<long long>(max_frames)) + " frames");
   }
-  // Key times are float32 (glTF): 17 / 24 s is stored as 0.70833331. A frame within kSlack of a
-  // frame period of a loop's end is that end, so one loop of 17 key intervals at 24 fps is 18
-  // frames, and its last frame shows the last key, not the first.
-  constexpr double kSlack = 1e-4;
-  const long frames = static_cast<long>(std::floor(total * fps + kSlack)) + 1;
+  return total;
+}
+
+namespace {
+constexpr double kLoopSlack = 1e-4;  // of a frame period
+}  // namespace
+
+double loop_time(double t, double duration, double fps) {
+  if (!(duration > 0) || !(t > 0)) return 0;
+  const double wrapped = std::fmod(t, duration);
+  if (wrapped < kLoopSlack / fps || duration - wrapped < kLoopSlack / fps) return duration;
+  return wrapped;
+}
+
+std::vector<double> looped_animation_times(const NodeAnimation& animation, double fps, std::optional<int> loops,
+                                           std::optional<double> seconds, double max_frames) {
+  const double total =
+      played_seconds("animation '" + animation.name + "': ", animation.duration(), fps, loops, seconds, max_frames);
+  const long frames = static_cast<long>(std::floor(total * fps + kLoopSlack)) + 1;
   std::vector<double> times(frames);
-  for (long k = 0; k < frames; ++k) {
-    const double clip_time = k / fps;
-    if (!(duration > 0)) {
-      times[k] = animation.start;
-      continue;
-    }
-    double wrapped = std::fmod(clip_time, duration);
-    // The end of a loop is the animation's last pose, not its first.
-    if (k > 0 && (wrapped < kSlack / fps || duration - wrapped < kSlack / fps)) wrapped = duration;
-    times[k] = animation.start + std::min(wrapped, duration);
-  }
+  for (long k = 0; k < frames; ++k) times[k] = animation.start + loop_time(k / fps, animation.duration(), fps);
   return times;
 }
 

@@ -77,14 +77,46 @@ struct NodeAnimation {
 Clip play_node_animation(const Character& character, const NodeAnimation& animation, std::span<const double> times,
                          double fps);
 
+// The animation played on the character at any time: the per-frame step of play_node_animation.
+// Its lengths are multiplied by `scale` (the character's offsets must be scaled alike). Throws
+// std::invalid_argument when the character's joints name nodes the animation does not have.
+class NodeAnimationPlayer {
+ public:
+  NodeAnimationPlayer(const Character& character, NodeAnimation animation, double scale = 1);
+  const NodeAnimation& animation() const { return animation_; }
+  // Every joint's local transform at animation time t (the file's clock): its local rotation and
+  // its offset from its parent (for a root, its world transform), as play_node_animation stores
+  // them. Throws std::invalid_argument naming the joint and the time for an overflow or an animated
+  // scale on a joint that binds vertices.
+  void local_pose(double t, std::span<RigidTransform<double>> local) const;
+
+ private:
+  NodeAnimation animation_;
+  Skeleton skeleton_;
+  std::vector<int> node_of_joint_;
+  double scale_ = 1;
+  std::vector<bool> binds_;                    // per joint: it binds vertices
+  std::vector<Eigen::Matrix3d> rest_binding_;  // per joint: R^T A at rest
+};
+
 // Animation times for a clip at `fps` that plays the animation `loops` times, or for `seconds`
 // (looping as often as needed; at most one of the two): frame k at clip time k / fps maps to
-// start + (k / fps mod duration), except that a time at (within 1e-4 of a frame period of) the end
-// of a loop maps to the end itself: key times are float32, so 17 / 24 s is a little short.
-// With neither, one play-through. An animation of one instant gives one frame per frame asked.
-// Throws std::invalid_argument for loops < 1, negative or non-finite seconds, or more than
-// max_frames frames.
+// start + loop_time(k / fps, duration, fps). With neither, one play-through. An animation of one
+// instant gives one frame per frame asked. Throws std::invalid_argument for loops < 1, negative or
+// non-finite seconds, or more than max_frames frames.
 std::vector<double> looped_animation_times(const NodeAnimation& animation, double fps, std::optional<int> loops,
                                            std::optional<double> seconds, double max_frames = 10'000'000);
+
+// The length played: `loops` times `duration`, `seconds`, or once (neither), checked as
+// looped_animation_times checks them (`who` begins each message).
+double played_seconds(const std::string& who, double duration, double fps, std::optional<int> loops,
+                      std::optional<double> seconds, double max_frames = 10'000'000);
+
+// Played time t of a looping animation of `duration` s, as a time within one loop: t mod duration,
+// except that a time within 1e-4 of a frame period (at `fps`) of a loop's end (t > 0) maps to the
+// end itself, since key times are float32 (17 / 24 s is a little short): one loop of 17 key
+// intervals at 24 fps is 18 frames, and its last frame shows the last key, not the first.
+// A duration of 0 (one instant) maps every time to 0.
+double loop_time(double t, double duration, double fps);
 
 }  // namespace odyssey

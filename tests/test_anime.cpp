@@ -171,29 +171,33 @@ TEST(AnimeActorTest, PlaysAtTheRequestedRateInTheToolkitsAxes) {
   request.source_fps = 10;
   request.fps = 30;
   request.scale = 2;
-  const scene::ActorMotion motion = scene::play_anime(request);
-  ASSERT_EQ(motion.clip.frame_count(), 31);
-  ASSERT_TRUE(motion.vertex_animation);
+  const auto motion = std::make_shared<const scene::ActorMotion>(scene::play_anime(request));
+  // Kept at the file's rate; played at the request's.
+  EXPECT_EQ(motion->clip.frame_count(), 11);
+  const scene::TimedClip played = scene::played_clip(motion, request.fps);
+  ASSERT_EQ(played.frame_count(), 31);
+  ASSERT_TRUE(played.vertex_animated());
   const Sphere sphere = unit_sphere();
   std::vector<RigidTransform<double>> world(1);
+  std::vector<float> local(played.vertex_count() * 3);
   double worst = 0;
   for (int f = 0; f <= 30; ++f) {
-    motion.clip.world_pose(f, world);
+    played.world_pose(f, world);
+    played.local_vertices(f, local);
     // The joint rides at the mesh's horizontal centroid (z = 0); (x, y, z) -> (x, -z, y), times 2.
     const Eigen::Vector3d centre = 2 * y_up_to_z_up() * (Motion{}.start + Motion{}.velocity * (f / 30.0));
     EXPECT_NEAR(world[0].translation.x(), centre.x(), 1e-5);
     EXPECT_NEAR(world[0].translation.y(), centre.y(), 1e-5);
     EXPECT_EQ(world[0].translation.z(), 0);
     for (std::size_t v = 0; v < sphere.directions.size(); ++v) {
-      const std::span<const float> local = motion.vertex_animation->frame(f);
       const Eigen::Vector3d p = world[0] * Eigen::Vector3d(local[3 * v], local[3 * v + 1], local[3 * v + 2]);
       worst = std::max(worst, (p - 2 * y_up_to_z_up() * Motion{}.vertex(sphere.directions[v], f / 30.0)).norm());
     }
   }
   EXPECT_LT(worst, 1e-5);
   // The character is the first frame, standing on its joint.
-  EXPECT_EQ(motion.character.meshes.size(), 1u);
-  EXPECT_NEAR(motion.character.rest_bounds().sizes().z(), 2 * 2 * 0.5, 1e-5);  // diameter 1, scale 2
+  EXPECT_EQ(motion->character.meshes.size(), 1u);
+  EXPECT_NEAR(motion->character.rest_bounds().sizes().z(), 2 * 2 * 0.5, 1e-5);  // diameter 1, scale 2
   // Z up: the axes are kept.
   request.up_z = true;
   request.scale = 1;

@@ -195,7 +195,7 @@ TEST(CameraRigsTest, EgoHeadFollowsTheHeadOnEveryFrame) {
   options.forward_offset = 0.12;
   options.up_offset = 0.07;
   const HeadFrame frame = head_frame_from_rest(clip.skeleton, kHead, kLeftHip, kRightHip);
-  const CameraPath path = ego_head_camera_path(clip, kHead, frame, kIntrinsics, options);
+  const CameraPath path = ego_head_camera_path(TimedClip(clip), kHead, frame, kIntrinsics, options);
   path.validate();
   EXPECT_EQ(path.kind, "ego-head");
   EXPECT_EQ(path.fps, 30);
@@ -222,7 +222,7 @@ TEST(CameraRigsTest, EgoHeadFollowsTheHeadOnEveryFrame) {
   map.joints[retarget::canonical::head] = kHead;
   map.joints[retarget::canonical::left_hip] = kLeftHip;
   map.joints[retarget::canonical::right_hip] = kRightHip;
-  const CameraPath mapped = ego_head_camera_path(clip, map, kIntrinsics, options);
+  const CameraPath mapped = ego_head_camera_path(TimedClip(clip), map, kIntrinsics, options);
   ASSERT_EQ(mapped.frame_count(), frames);
   for (int f = 0; f < frames; ++f) {
     EXPECT_EQ(mapped.poses[f].rotation, path.poses[f].rotation) << f;
@@ -249,9 +249,9 @@ TEST(CameraRigsTest, SmoothingKeepsStraightMotion) {
   EgoHeadOptions options;
   options.forward_offset = 0;
   options.up_offset = 0;
-  const CameraPath raw = ego_head_camera_path(clip, kHead, frame, kIntrinsics, options);
+  const CameraPath raw = ego_head_camera_path(TimedClip(clip), kHead, frame, kIntrinsics, options);
   options.smoothing_sigma_s = 0.05;  // 1.5 frames
-  const CameraPath smooth = ego_head_camera_path(clip, kHead, frame, kIntrinsics, options);
+  const CameraPath smooth = ego_head_camera_path(TimedClip(clip), kHead, frame, kIntrinsics, options);
   smooth.validate();
   int checked = 0;
   for (int f = 0; f < frames; ++f) {
@@ -282,10 +282,10 @@ TEST(CameraRigsTest, SmoothingReducesA10HzWobbleByTheGaussianGain) {
   EgoHeadOptions options;
   options.forward_offset = 0;
   options.up_offset = 0;
-  const CameraPath raw = ego_head_camera_path(clip, kHead, frame, kIntrinsics, options);
+  const CameraPath raw = ego_head_camera_path(TimedClip(clip), kHead, frame, kIntrinsics, options);
   const double sigma = 0.02;  // 2.4 frames
   options.smoothing_sigma_s = sigma;
-  const CameraPath smooth = ego_head_camera_path(clip, kHead, frame, kIntrinsics, options);
+  const CameraPath smooth = ego_head_camera_path(TimedClip(clip), kHead, frame, kIntrinsics, options);
 
   const auto sideways = [](const CameraPose& pose) { return pose.centre().x(); };
   const auto yaw = [](const CameraPose& pose) { return std::atan2(pose.forward().y(), pose.forward().x()) - kPi / 2; };
@@ -367,29 +367,29 @@ TEST(CameraRigsTest, RejectsBadOptions) {
   const HeadFrame frame = head_frame_from_rest(clip.skeleton, kHead, kLeftHip, kRightHip);
   EgoHeadOptions ego;
   ego.smoothing_sigma_s = -0.01;
-  expect_invalid([&] { ego_head_camera_path(clip, kHead, frame, kIntrinsics, ego); }, "smoothing_sigma_s");
+  expect_invalid([&] { ego_head_camera_path(TimedClip(clip), kHead, frame, kIntrinsics, ego); }, "smoothing_sigma_s");
   ego.smoothing_sigma_s = 0;
   ego.forward_offset = std::numeric_limits<double>::infinity();
-  expect_invalid([&] { ego_head_camera_path(clip, kHead, frame, kIntrinsics, ego); }, "forward_offset");
+  expect_invalid([&] { ego_head_camera_path(TimedClip(clip), kHead, frame, kIntrinsics, ego); }, "forward_offset");
   ego.forward_offset = 0.1;
-  expect_invalid([&] { ego_head_camera_path(clip, 9, frame, kIntrinsics, ego); }, "head joint 9");
+  expect_invalid([&] { ego_head_camera_path(TimedClip(clip), 9, frame, kIntrinsics, ego); }, "head joint 9");
   HeadFrame looking_up;
   looking_up.forward_local = Vector3d(0, 0, 2);
-  expect_invalid([&] { ego_head_camera_path(clip, kHead, looking_up, kIntrinsics, ego); }, "head_frame");
+  expect_invalid([&] { ego_head_camera_path(TimedClip(clip), kHead, looking_up, kIntrinsics, ego); }, "head_frame");
   Clip empty = clip;
   empty.rotations.clear();
   empty.translations.clear();
-  expect_invalid([&] { ego_head_camera_path(empty, kHead, frame, kIntrinsics, ego); }, "frames");
+  expect_invalid([&] { ego_head_camera_path(TimedClip(empty), kHead, frame, kIntrinsics, ego); }, "frames");
 
   retarget::BoneMap map;
   map.joints[retarget::canonical::left_hip] = kLeftHip;
   map.joints[retarget::canonical::right_hip] = kRightHip;
-  expect_invalid([&] { ego_head_camera_path(clip, map, kIntrinsics, ego); }, "no head");
+  expect_invalid([&] { ego_head_camera_path(TimedClip(clip), map, kIntrinsics, ego); }, "no head");
   map.joints[retarget::canonical::head] = kHead;
   map.joints[retarget::canonical::right_hip] = -1;
-  expect_invalid([&] { ego_head_camera_path(clip, map, kIntrinsics, ego); }, "right_hip");
+  expect_invalid([&] { ego_head_camera_path(TimedClip(clip), map, kIntrinsics, ego); }, "right_hip");
   map.joints[retarget::canonical::right_hip] = kRightHip;
-  EXPECT_EQ(ego_head_camera_path(clip, map, kIntrinsics, ego).frame_count(), 5);
+  EXPECT_EQ(ego_head_camera_path(TimedClip(clip), map, kIntrinsics, ego).frame_count(), 5);
 }
 
 // The ego camera on a real character in its rest pose: it sits in front of and above the head
@@ -405,7 +405,7 @@ void check_rest_pose_ego_camera(const std::string& path) {
   clip.fps = 30;
   for (int f = 0; f < 4; ++f) clip.rotations.insert(clip.rotations.end(), rig.rest_rotations().begin(), rig.rest_rotations().end());
   const EgoHeadOptions options;
-  const CameraPath camera = ego_head_camera_path(clip, map, kIntrinsics, options);
+  const CameraPath camera = ego_head_camera_path(TimedClip(clip), map, kIntrinsics, options);
   camera.validate();
   ASSERT_EQ(camera.frame_count(), 4);
 

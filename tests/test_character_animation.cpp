@@ -21,6 +21,7 @@
 #include "mocap_io/input_error.h"
 #include "scene_layouts/actor_source.h"
 #include "scene_layouts/scene_file.h"
+#include "skeleton/node_animation.h"
 #include "skeleton/rotation.h"
 #include "test_support.h"
 
@@ -134,29 +135,68 @@ TEST(CharacterAnimationTest, LoopsAndScaleGiveTheRequestedLengthAndSize) {
   request.fps = 10;
   request.length.loops = 3;
   request.scale = 0.5;
-  const scene::ActorMotion motion = scene::play_character_animation(request);
-  EXPECT_EQ(motion.clip.frame_count(), 31);  // 3 s at 10 fps
+  const auto motion = std::make_shared<const scene::ActorMotion>(scene::play_character_animation(request));
+  const scene::TimedClip played = scene::played_clip(motion, request.fps);
+  EXPECT_EQ(played.frame_count(), 31);  // 3 s at 10 fps
+  EXPECT_TRUE(motion->loops);
+  EXPECT_EQ(motion->clip.frame_count(), 11);  // one pass of 1 s
   // The mover moves the skeleton: its first joint (hips, under the folded mover) is the root.
-  EXPECT_EQ(motion.character.skeleton.name(motion.root_joint), "hips");
+  EXPECT_EQ(motion->character.skeleton.name(motion->root_joint), "hips");
   // Half size: the unscaled clip's hips, halved, at each loop's same phase.
   request.scale = 1;
-  const scene::ActorMotion full = scene::play_character_animation(request);
-  std::vector<RigidTransform<double>> half_world(motion.clip.joint_count()), full_world(full.clip.joint_count());
+  const auto full_motion = std::make_shared<const scene::ActorMotion>(scene::play_character_animation(request));
+  const scene::TimedClip full = scene::played_clip(full_motion, request.fps);
+  std::vector<RigidTransform<double>> half_world(played.joint_count()), full_world(full.joint_count());
   for (const int f : {0, 4, 14, 24, 30}) {
-    motion.clip.world_pose(f, half_world);
-    full.clip.world_pose(f, full_world);
-    for (int j = 0; j < motion.clip.joint_count(); ++j) {
+    played.world_pose(f, half_world);
+    full.world_pose(f, full_world);
+    for (int j = 0; j < played.joint_count(); ++j) {
       EXPECT_LT((half_world[j].translation - 0.5 * full_world[j].translation).norm(), 1e-12);
     }
     // Skinned vertices too: the inverse binds were scaled with the offsets.
-    const std::vector<Eigen::Vector3d> half = skin_mesh_reference(motion.character.meshes[0], half_world);
-    const std::vector<Eigen::Vector3d> whole = skin_mesh_reference(full.character.meshes[0], full_world);
+    const std::vector<Eigen::Vector3d> half = skin_mesh_reference(motion->character.meshes[0], half_world);
+    const std::vector<Eigen::Vector3d> whole = skin_mesh_reference(full_motion->character.meshes[0], full_world);
     for (std::size_t v = 0; v < half.size(); ++v) EXPECT_LT((half[v] - 0.5 * whole[v]).norm(), 1e-12);
   }
-  full.clip.world_pose(4, full_world);
-  std::vector<RigidTransform<double>> later(full.clip.joint_count());
-  full.clip.world_pose(14, later);  // one loop on: the same pose
+  full.world_pose(4, full_world);
+  std::vector<RigidTransform<double>> later(full.joint_count());
+  full.world_pose(14, later);  // one loop on: the same pose
   EXPECT_LT((later[0].translation - full_world[0].translation).norm(), 1e-9);
+}
+
+// A looping animation keeps one pass, however long it plays, and the shot's frames show the keys'
+// poses: against the file's keys evaluated at every played frame (looped_animation_times), as the
+// whole played clip was built before.
+TEST(CharacterAnimationTest, ALoopedAnimationKeepsOnePassAndPlaysTheKeysPoses) {
+  const std::string fox = std::string(ODYSSEY_DATA_DIR) + "/characters/Fox.glb";
+  scene::AnimationRequest request;
+  request.character_path = fox;
+  request.animation = "Walk";
+  request.fps = 30;
+  request.length.seconds = 6;
+  const auto short_play = std::make_shared<const scene::ActorMotion>(scene::play_character_animation(request));
+  request.length.seconds = 600;
+  const auto long_play = std::make_shared<const scene::ActorMotion>(scene::play_character_animation(request));
+  EXPECT_EQ(short_play->clip.frame_count(), long_play->clip.frame_count());
+  EXPECT_LE(long_play->clip.frame_count(), 23);  // 0.708 s at 30 fps, rounded up, and its last key
+  EXPECT_DOUBLE_EQ(long_play->played_seconds, 600);
+
+  const scene::TimedClip played = scene::played_clip(short_play, 30);
+  ASSERT_EQ(played.frame_count(), 181);
+  const Character character = io::load_character(fox);
+  const NodeAnimation animation = io::load_gltf_animation(fox, "Walk");
+  const Clip reference = play_node_animation(character, animation, looped_animation_times(animation, 30, std::nullopt, 6), 30);
+  ASSERT_EQ(reference.frame_count(), 181);
+  std::vector<RigidTransform<double>> ours(played.joint_count()), theirs(reference.joint_count());
+  double worst = 0;
+  for (int f = 0; f < 181; ++f) {
+    played.world_pose(f, ours);
+    reference.world_pose(f, theirs);
+    for (int j = 0; j < played.joint_count(); ++j) worst = std::max(worst, (ours[j].translation - theirs[j].translation).norm());
+  }
+  const double size = character.rest_bounds().sizes().maxCoeff();
+  std::printf("Fox walk looped for 6 s at 30 fps: joints within %.3g of the keys' poses (%.3g of its size)\n", worst, worst / size);
+  EXPECT_LT(worst, 1e-9 * size);
 }
 
 TEST(CharacterAnimationCliTest, AMissingAnimationListsTheNamesAndWritesNothing) {

@@ -70,13 +70,16 @@ const scene::SceneResult& shared_scene() {
 }
 
 struct SceneInput {
+  std::vector<Clip> clips;  // each actor's, stored whole (as SceneGlbSink does)
   std::vector<io::SceneGlbActor> actors;
   std::vector<io::SceneGlbCamera> cameras;
 };
 SceneInput glb_input(const scene::SceneResult& result) {
   SceneInput input;
+  input.clips.reserve(result.actors.size());
   for (const scene::PlacedActor& actor : result.actors) {
-    input.actors.push_back({actor.name, &actor.retargeted->character, &actor.clip});
+    input.clips.push_back(actor.clip.stored_clip());
+    input.actors.push_back({actor.name, &actor.retargeted->character, &input.clips.back()});
   }
   for (std::size_t c = 0; c < result.cameras.size(); ++c) input.cameras.push_back({result.cameras[c].name, &result.cameras[c].path});
   return input;
@@ -213,13 +216,14 @@ TEST(SceneGlbTest, TheFileReproducesTheToolkitsJointsSkinsAndCameras) {
   const Eigen::Matrix3d to_gltf = y_up_to_z_up().transpose();
 
   std::size_t expected_nodes = result.props.character.meshes.size() + result.cameras.size(), expected_channels = 2 * result.cameras.size();
-  for (const scene::PlacedActor& actor : result.actors) {
-    const Character& character = actor.retargeted->character;
+  for (std::size_t a = 0; a < result.actors.size(); ++a) {
+    const Character& character = result.actors[a].retargeted->character;
+    const Clip& clip = input.clips[a];
     expected_nodes += 1 + character.skeleton.joint_count() + character.meshes.size();
     expected_channels += character.skeleton.joint_count();
     for (int j = 0; j < character.skeleton.joint_count(); ++j) {
-      const bool translated = std::find(actor.clip.translated_joints.begin(), actor.clip.translated_joints.end(), j) !=
-                              actor.clip.translated_joints.end();
+      const bool translated = std::find(clip.translated_joints.begin(), clip.translated_joints.end(), j) !=
+                              clip.translated_joints.end();
       expected_channels += translated || character.skeleton.parent(j) < 0;
     }
   }
@@ -321,7 +325,7 @@ TEST(SceneGlbTest, InconsistentInputIsRefusedAndNothingIsWritten) {
   const fs::path dir = test_support::scratch_dir("scene_glb_errors");
   const std::string out = (dir / "bad.glb").string();
 
-  Clip shorter = result.actors[1].clip;
+  Clip shorter = input.clips[1];
   const int joints = shorter.joint_count();
   shorter.rotations.resize(shorter.rotations.size() - joints);
   shorter.translations.resize(shorter.translations.size() - shorter.translated_joints.size());
@@ -331,7 +335,7 @@ TEST(SceneGlbTest, InconsistentInputIsRefusedAndNothingIsWritten) {
   EXPECT_TRUE(contains(message, "actor 'cesium''s clip has 30 frames, but actor 'figure''s clip has 31")) << message;
 
   input = glb_input(result);
-  input.actors[1].clip = &result.actors[0].clip;  // another skeleton
+  input.actors[1].clip = &input.clips[0];  // another skeleton
   message = test_support::message_of<std::invalid_argument>(
       [&] { io::write_scene_glb(out, input.actors, &result.props.character, input.cameras, result.fps); });
   EXPECT_TRUE(contains(message, "actor 'cesium': the clip is not on the character's skeleton")) << message;
