@@ -157,11 +157,6 @@ void Clip::local_pose_at(double time, std::span<RigidTransform<double>> local) c
   for (std::size_t t = 0; t < translated_joints.size(); ++t) local[translated_joints[t]].translation = translation_at(*this, b, t);
 }
 
-void Clip::world_pose_at(double time, KinematicData<double>& data) const {
-  local_pose_at(time, data.local);
-  forward_kinematics(skeleton.kinematics(), data);
-}
-
 Clip Clip::sampled_at(std::span<const double> times, double target_fps) const {
   if (!(target_fps > 0) || !std::isfinite(target_fps)) {
     throw std::invalid_argument("target frame rate " + std::to_string(target_fps) + " is not positive");

@@ -48,12 +48,10 @@ struct Clip {
   // World transforms of one frame (roots hung from the origin).
   void world_pose(int frame, std::span<RigidTransform<double>> world) const;
 
-  // The pose at any time (seconds from the first frame, clamped to [0, duration()]), interpolated
-  // between the two neighbouring frames as sampled_at does: the local transforms, and the world
-  // ones by forward kinematics from data.base (kept as the caller set it). Allocates nothing.
-  // Throws std::invalid_argument for a non-finite time or a clip without frames.
+  // The local transforms at any time (seconds from the first frame, clamped to [0, duration()]),
+  // interpolated between the two neighbouring frames as sampled_at does. Allocates nothing. Throws
+  // std::invalid_argument for a non-finite time or a clip without frames.
   void local_pose_at(double time, std::span<RigidTransform<double>> local) const;
-  void world_pose_at(double time, KinematicData<double>& data) const;
 
   // The clip sampled at `target_fps` over the same duration: frame k sits at time k / target_fps;
   // rotations are slerped (short way) and translations interpolated linearly between the two

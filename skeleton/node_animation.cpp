@@ -225,14 +225,4 @@ double loop_time(double t, double duration, double fps) {
   return wrapped;
 }
 
-std::vector<double> looped_animation_times(const NodeAnimation& animation, double fps, std::optional<int> loops,
-                                           std::optional<double> seconds, double max_frames) {
-  const double total =
-      played_seconds("animation '" + animation.name + "': ", animation.duration(), fps, loops, seconds, max_frames);
-  const long frames = static_cast<long>(std::floor(total * fps + kLoopSlack)) + 1;
-  std::vector<double> times(frames);
-  for (long k = 0; k < frames; ++k) times[k] = animation.start + loop_time(k / fps, animation.duration(), fps);
-  return times;
-}
-
 }  // namespace odyssey

@@ -99,16 +99,9 @@ class NodeAnimationPlayer {
   std::vector<Eigen::Matrix3d> rest_binding_;  // per joint: R^T A at rest
 };
 
-// Animation times for a clip at `fps` that plays the animation `loops` times, or for `seconds`
-// (looping as often as needed; at most one of the two): frame k at clip time k / fps maps to
-// start + loop_time(k / fps, duration, fps). With neither, one play-through. An animation of one
-// instant gives one frame per frame asked. Throws std::invalid_argument for loops < 1, negative or
-// non-finite seconds, or more than max_frames frames.
-std::vector<double> looped_animation_times(const NodeAnimation& animation, double fps, std::optional<int> loops,
-                                           std::optional<double> seconds, double max_frames = 10'000'000);
-
-// The length played: `loops` times `duration`, `seconds`, or once (neither), checked as
-// looped_animation_times checks them (`who` begins each message).
+// The length played: `loops` times `duration`, `seconds` (looping as often as needed), or once
+// (neither). Throws std::invalid_argument (`who` begins the message) for both given, loops < 1,
+// negative or non-finite seconds, or more than max_frames frames at `fps`.
 double played_seconds(const std::string& who, double duration, double fps, std::optional<int> loops,
                       std::optional<double> seconds, double max_frames = 10'000'000);
 

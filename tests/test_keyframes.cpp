@@ -123,44 +123,40 @@ TEST(KeyframesTest, ValidateNamesTheBadKey) {
   EXPECT_NE(message({Interpolation::linear, 3, false, {}, {}}).find("no keys"), std::string::npos);
 }
 
-NodeAnimation timed(double start, double end) {
-  NodeAnimation animation;
-  animation.name = "cycle";
-  animation.start = start;
-  animation.end = end;
-  return animation;
-}
-
 TEST(NodeAnimationTimingTest, OneLoopOfFloatKeyTimesEndsOnTheLastKey) {
   // The Fox's Walk: 17 key intervals at 24 fps, its last key stored as the float 0.70833331.
-  const NodeAnimation walk = timed(0, static_cast<float>(17.0 / 24.0));
-  const std::vector<double> once = looped_animation_times(walk, 24, std::nullopt, std::nullopt);
-  ASSERT_EQ(once.size(), 18u);
-  EXPECT_DOUBLE_EQ(once[17], walk.end);
-  EXPECT_DOUBLE_EQ(once[5], 5.0 / 24);
-  const std::vector<double> twice = looped_animation_times(walk, 24, 2, std::nullopt);
-  ASSERT_EQ(twice.size(), 35u);
-  EXPECT_DOUBLE_EQ(twice[17], walk.end);  // the end of loop 1 is the last pose
-  EXPECT_NEAR(twice[18], 1.0 / 24, 1e-6);  // then it starts over
-  EXPECT_DOUBLE_EQ(twice[34], walk.end);
+  const double end = static_cast<float>(17.0 / 24.0);
+  EXPECT_DOUBLE_EQ(played_seconds("walk: ", end, 24, std::nullopt, std::nullopt), end);
+  EXPECT_DOUBLE_EQ(loop_time(5 / 24.0, end, 24), 5.0 / 24);
+  // Frame 17 at 24 fps, a little past the float end, is the end: the last pose, not the first.
+  EXPECT_DOUBLE_EQ(loop_time(17 / 24.0, end, 24), end);
+  EXPECT_NEAR(loop_time(18 / 24.0, end, 24), 1.0 / 24, 1e-6);  // then it starts over
+  EXPECT_DOUBLE_EQ(loop_time(34 / 24.0, end, 24), end);       // the end of loop 2
+  EXPECT_DOUBLE_EQ(loop_time(0, end, 24), 0);
 }
 
-TEST(NodeAnimationTimingTest, SecondsLoopAsOftenAsNeededAndStartIsTheFirstKey) {
-  const NodeAnimation clip = timed(0.5, 1.5);  // one second of animation, keys from 0.5 s
-  const std::vector<double> times = looped_animation_times(clip, 10, std::nullopt, 2.55);
-  ASSERT_EQ(times.size(), 26u);  // frames 0 .. 25 at 10 fps cover 2.5 s; 2.55 s holds no 27th
-  EXPECT_DOUBLE_EQ(times[0], 0.5);
-  EXPECT_NEAR(times[3], 0.8, 1e-12);
-  EXPECT_DOUBLE_EQ(times[10], 1.5);
-  EXPECT_NEAR(times[13], 0.8, 1e-12);
-  EXPECT_NEAR(times[25], 1.0, 1e-12);
-  // An animation of one instant: its pose for every frame asked.
-  const std::vector<double> still = looped_animation_times(timed(2, 2), 30, std::nullopt, 1.0);
-  ASSERT_EQ(still.size(), 31u);
-  EXPECT_DOUBLE_EQ(still[30], 2.0);
-  EXPECT_THROW(looped_animation_times(clip, 30, 0, std::nullopt), std::invalid_argument);
-  EXPECT_THROW(looped_animation_times(clip, 30, 1, 1.0), std::invalid_argument);
-  EXPECT_THROW(looped_animation_times(clip, 30, std::nullopt, 1e9), std::invalid_argument);
+TEST(NodeAnimationTimingTest, SecondsLoopAsOftenAsNeeded) {
+  // One second of animation played for 2.55 s at 10 fps.
+  EXPECT_DOUBLE_EQ(played_seconds("cycle: ", 1, 10, std::nullopt, 2.55), 2.55);
+  EXPECT_DOUBLE_EQ(played_seconds("cycle: ", 1, 10, 3, std::nullopt), 3);
+  EXPECT_NEAR(loop_time(0.3, 1, 10), 0.3, 1e-12);
+  EXPECT_DOUBLE_EQ(loop_time(1.0, 1, 10), 1.0);
+  EXPECT_NEAR(loop_time(1.3, 1, 10), 0.3, 1e-12);
+  EXPECT_NEAR(loop_time(2.5, 1, 10), 0.5, 1e-12);
+  // An animation of one instant: its pose at every time.
+  EXPECT_EQ(loop_time(0.7, 0, 30), 0);
+  const auto message = [](auto call) {
+    try {
+      call();
+    } catch (const std::invalid_argument& error) {
+      return std::string(error.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message([] { played_seconds("cycle: ", 1, 30, 0, std::nullopt); }), "cycle: loops must be 1 or more");
+  EXPECT_EQ(message([] { played_seconds("cycle: ", 1, 30, 1, 1.0); }), "cycle: give loops or seconds, not both");
+  EXPECT_EQ(message([] { played_seconds("cycle: ", 1, 30, std::nullopt, -1.0); }), "cycle: seconds must be 0 or more");
+  EXPECT_TRUE(message([] { played_seconds("cycle: ", 1, 30, std::nullopt, 1e9); }).find("more than 10000000 frames") != std::string::npos);
 }
 
 }  // namespace
