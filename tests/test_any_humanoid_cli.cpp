@@ -118,5 +118,31 @@ TEST(AnyHumanoidCliTest, MapAutoStructure) {
   EXPECT_EQ(report["target"]["map"], "skeleton structure") << report["target"];
 }
 
+// The keyword works where maps are given as files too: a scene's actor and a batch manifest's row
+// (whose map column is hashed as a file unless it is a keyword).
+TEST(AnyHumanoidCliTest, MapAutoStructureInASceneAndAManifest) {
+  const std::string character = test_support::kSharedCharacters + "CesiumMan.glb";
+  const fs::path dir = test_support::scratch_dir("any_humanoid_cli");  // taken once: each call empties it
+  const fs::path scene = dir / "structure_scene.json";
+  std::ofstream(scene) << R"({"version": 1, "fps": 30, "seconds": 1,
+    "actors": [{"name": "a", "motion": ")" << kWalk << R"(", "bvh_units": "cmu", "character": ")" << character
+                       << R"(", "quality": "fast", "map": "auto-structure"}],
+    "cameras": [{"name": "wide", "type": "static", "position": [0, -6, 1.5], "target": [0, 0, 0.8]}],
+    "outputs": {"report": true}})";
+  const test_support::CliResult run = run_cli("scene '" + scene.string() + "' --out '" + (dir / "structure_scene").string() + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json report = read_json((dir / "structure_scene") / "report.json");
+  EXPECT_EQ(report["actors"][0]["retarget"]["target"]["map"], "skeleton structure") << report["actors"][0];
+
+  const fs::path manifest = dir / "structure_jobs.csv";
+  std::ofstream(manifest) << "motion,character,map\n" << kWalk << "," << character << ",auto-structure\n";
+  const test_support::CliResult batch =
+      run_cli("batch --manifest '" + manifest.string() + "' --out '" + (dir / "structure_batch").string() + "' --quality fast");
+  ASSERT_EQ(batch.exit_code, 0) << batch.output;
+  const nlohmann::json jobs = read_json((dir / "structure_batch") / "report.json")["jobs"];
+  ASSERT_EQ(jobs.size(), 1u) << jobs;
+  EXPECT_EQ(jobs[0]["status"], "done") << jobs[0];
+}
+
 }  // namespace
 }  // namespace odyssey
