@@ -161,7 +161,7 @@ ActorMotion play_anime(const AnimeRequest& request) {
   // Kept at the file's rate: the shot interpolates it at its own times (timed_clip.h).
   ActorMotion motion;
   try {
-    set_playback(motion, std::filesystem::path(path).filename().string() + ": ", source.duration(), request.fps, request.length);
+    set_playback(motion, "", source.duration(), request.fps, request.length);  // the error names the file
   } catch (const std::invalid_argument& error) {
     throw io::InputError(path, error.what());
   }
