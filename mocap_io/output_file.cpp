@@ -250,7 +250,14 @@ StagedOutputs::~StagedOutputs() {
 void require_replaceable_output(const std::string& target, bool folder) {
   std::error_code error;
   const fs::file_status status = fs::status(target, error);
-  if (error || !fs::exists(status)) return;
+  if (error || !fs::exists(status)) {
+    // A new output goes into a folder that must be there: no output makes its parents.
+    const fs::path parent = fs::path(target).parent_path();
+    if (!parent.empty() && !fs::is_directory(parent, error)) {
+      throw InputError(target, "its folder " + parent.string() + (fs::exists(parent, error) ? " is not a folder" : " does not exist"));
+    }
+    return;
+  }
   const char* what = fs::is_regular_file(status) ? "a file"
                      : fs::is_directory(status)  ? "a folder"
                      : fs::is_character_file(status) || fs::is_block_file(status) ? "a device"

@@ -37,7 +37,8 @@ class TempFile {
 // Throws InputError naming `target` when it exists and is not what an output may replace: a regular
 // file (or, with `folder`, a folder), followed through symbolic links. A device, FIFO or socket is
 // never replaced by an output (renaming onto /dev/null would replace the node), nor a folder by a
-// file or a file by a folder.
+// file or a file by a folder. A target that does not exist must have its folder (no output makes
+// its parents).
 void require_replaceable_output(const std::string& target, bool folder = false);
 
 // Throws InputError naming `output` when it is one of `inputs` (empty ones skipped): the same path
