@@ -2,8 +2,9 @@
 //
 // Plain data in, plain data out. A PhysicsScene describes the world of one shot (Z up, metres,
 // seconds, kilograms): an optional infinite ground plane z = 0, static bodies, dynamic props,
-// kinematic colliders that follow given tracks (an actor's bones) and timed impulses. PhysicsModel
-// validates it once and prepares every shape (hulls, mass properties, principal frames); it is
+// kinematic colliders that follow given tracks or are posed frame by frame by a function (an
+// actor's bones, KinematicSet) and timed impulses. PhysicsModel validates it once (a set's poses
+// as they come) and prepares every shape (hulls, mass properties, principal frames); it is
 // constant. simulate() builds a fresh Bullet world from the model on every call, so the same model
 // always gives byte-identical output (Bullet single-threaded is deterministic for a given
 // insertion order, and no state survives between calls), and threads may simulate one model at
